@@ -1,0 +1,55 @@
+#pragma once
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace fluoro_tracker {
+namespace test_support {
+
+// A fresh folder under the system temp dir, removed with everything in it on destruction.
+class TempDir {
+ public:
+  TempDir() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "fluoro_test_XXXXXX").string();
+    if (mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
+    path_ = pattern;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+  std::string path() const { return path_.string(); }
+
+ private:
+  std::filesystem::path path_;
+};
+
+inline void writeText(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+}
+
+// Real data from ../shared/data beside the repository (see its README.md).
+inline std::string sharedData(const std::string& relative) {
+  return std::string(FLUORO_SHARED_DATA) + "/" + relative;
+}
+
+// Expects `statement` to throw an exception whose message contains `fragment`.
+#define EXPECT_THROW_WITH(statement, fragment)                                    \
+  do {                                                                            \
+    try {                                                                         \
+      statement;                                                                  \
+      ADD_FAILURE() << "expected an exception containing '" << (fragment) << "'"; \
+    } catch (const std::exception& e) {                                           \
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos)          \
+          << "message was: " << e.what();                                         \
+    }                                                                             \
+  } while (0)
+
+}  // namespace test_support
+}  // namespace fluoro_tracker
