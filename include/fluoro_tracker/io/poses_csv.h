@@ -1,0 +1,31 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "fluoro_tracker/geometry/pose.h"
+
+namespace fluoro_tracker {
+namespace io {
+
+// One row of the public poses CSV (docs: interfaces.md):
+//   frame,stamp,bone,x_m,y_m,z_m,qx,qy,qz,qw,status
+// frame counts images from 0, stamp is the image stamp in seconds, the pose is of the bone
+// frame in the trial's fixed frame, status is ok, suspect or lost.
+struct PoseRecord {
+  int frame = 0;
+  double stamp = 0.0;
+  std::string bone;
+  geometry::Pose pose = geometry::Pose::Identity();
+  std::string status = "ok";
+};
+
+extern const char kPosesCsvHeader[];
+
+// Reads a poses CSV; columns after `status` are ignored. Throws InputError naming the file and
+// line for a wrong header, a malformed row, a non-finite value or an unknown status.
+std::vector<PoseRecord> readPosesCsv(const std::string& path);
+void writePosesCsv(const std::string& path, const std::vector<PoseRecord>& records);
+
+}  // namespace io
+}  // namespace fluoro_tracker

@@ -1,0 +1,49 @@
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fluoro_tracker/geometry/length_unit.h"
+#include "fluoro_tracker/geometry/pose.h"
+
+namespace fluoro_tracker {
+namespace io {
+
+struct BoneConfig {
+  std::string name;
+  std::string mesh;  // absolute path (relative paths in the YAML are resolved against its folder)
+  geometry::LengthUnit mesh_units = geometry::LengthUnit::kMillimetre;
+  // Surface that takes part in articular contact but not in the image term, e.g. the
+  // polyethylene insert on a metal tibial tray. Empty: the image mesh is used for contact.
+  std::string articular_mesh;
+  // Pose of the bone frame in fixed_frame at the first frame (metres); none: find it
+  // automatically.
+  std::optional<geometry::Pose> initial_pose;
+};
+
+struct JointConfig {
+  std::string name;
+  std::string parent;
+  std::string child;
+  std::string type = "knee";
+  bool contact_enabled = true;
+  bool ligaments_enabled = true;
+};
+
+// The trial YAML of docs/interfaces.md. Later layers add their own typed sections.
+struct TrialConfig {
+  std::string fixed_frame;  // empty: the first view's optical frame
+  std::vector<BoneConfig> bones;
+  std::vector<JointConfig> joints;
+
+  const BoneConfig* findBone(const std::string& name) const;
+};
+
+// Throws InputError naming the file, the key and (for YAML syntax errors) the line.
+TrialConfig loadTrialConfig(const std::string& path);
+// Writes mesh paths relative to the YAML file's folder when they lie below it.
+void saveTrialConfig(const std::string& path, const TrialConfig& config);
+
+}  // namespace io
+}  // namespace fluoro_tracker

@@ -1,0 +1,98 @@
+#include "fluoro_tracker/io/poses_csv.h"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "fluoro_tracker/input_error.h"
+#include "text_lines.h"
+
+namespace fluoro_tracker {
+namespace io {
+
+const char kPosesCsvHeader[] = "frame,stamp,bone,x_m,y_m,z_m,qx,qy,qz,qw,status";
+
+namespace {
+
+std::vector<std::string> splitCsv(const std::string& line) {
+  std::vector<std::string> fields;
+  std::stringstream in(line);
+  std::string field;
+  while (std::getline(in, field, ',')) fields.push_back(detail::trim(field));
+  if (!line.empty() && line.back() == ',') fields.emplace_back();
+  return fields;
+}
+
+bool isKnownStatus(const std::string& s) {
+  return s == "ok" || s == "suspect" || s == "lost";
+}
+
+}  // namespace
+
+std::vector<PoseRecord> readPosesCsv(const std::string& path) {
+  const auto lines = detail::readTrimmedLines(path, "poses CSV");
+  const std::string expected = kPosesCsvHeader;
+  if (lines[0].rfind(expected, 0) != 0) {
+    throw InputError("poses CSV '" + path + "': header must start with '" + expected +
+                     "', found '" + lines[0] + "'");
+  }
+  std::vector<PoseRecord> records;
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    if (lines[i].empty()) continue;
+    const std::string context = "poses CSV '" + path + "' line " + std::to_string(i + 1);
+    const auto f = splitCsv(lines[i]);
+    if (f.size() < 11) {
+      throw InputError(context + ": expected 11 columns, found " + std::to_string(f.size()));
+    }
+    PoseRecord r;
+    const auto number = [&](int column) {
+      return detail::parseNumbers(f[column], 1,
+                                  context + " column " + std::to_string(column + 1))[0];
+    };
+    const double frame = number(0);
+    if (frame < 0 || frame != std::floor(frame)) {
+      throw InputError(context + ": frame must be a whole number >= 0");
+    }
+    r.frame = static_cast<int>(frame);
+    r.stamp = number(1);
+    r.bone = f[2];
+    if (r.bone.empty()) throw InputError(context + ": empty bone name");
+    const Eigen::Vector3d t(number(3), number(4), number(5));
+    Eigen::Quaterniond q(number(9), number(6), number(7), number(8));
+    if (std::abs(q.norm() - 1.0) > 1e-3) {
+      throw InputError(context + ": quaternion is not unit length (norm " +
+                       std::to_string(q.norm()) + ")");
+    }
+    r.pose = geometry::makePose(q, t);
+    r.status = f[10];
+    if (!isKnownStatus(r.status)) {
+      throw InputError(context + ": status '" + r.status + "' is not ok, suspect or lost");
+    }
+    records.push_back(std::move(r));
+  }
+  return records;
+}
+
+void writePosesCsv(const std::string& path, const std::vector<PoseRecord>& records) {
+  std::ofstream out(path);
+  if (!out) throw InputError("cannot write poses CSV '" + path + "'");
+  out << kPosesCsvHeader << "\n";
+  char buffer[512];
+  for (const auto& r : records) {
+    if (!geometry::isValidPose(r.pose)) {
+      throw InputError("refusing to write a non-finite pose for bone '" + r.bone + "' frame " +
+                       std::to_string(r.frame) + " to '" + path + "'");
+    }
+    const Eigen::Quaterniond q(r.pose.linear());
+    const Eigen::Vector3d& t = r.pose.translation();
+    std::snprintf(buffer, sizeof(buffer), "%d,%.9f,%s,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f,%s\n",
+                  r.frame, r.stamp, r.bone.c_str(), t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w(),
+                  r.status.c_str());
+    out << buffer;
+  }
+  if (!out) throw InputError("failed while writing poses CSV '" + path + "'");
+}
+
+}  // namespace io
+}  // namespace fluoro_tracker

@@ -1,0 +1,24 @@
+#pragma once
+
+// Small helpers shared by the line-oriented readers of io/ (JointTrack and MayaCam files).
+
+#include <string>
+#include <vector>
+
+namespace fluoro_tracker {
+namespace io {
+namespace detail {
+
+// All lines of a text file with trailing '\r' and surrounding blanks removed. Throws InputError
+// if the file cannot be opened or is empty.
+std::vector<std::string> readTrimmedLines(const std::string& path, const std::string& what);
+
+// Parses numbers separated by commas and/or white space. Throws InputError naming `context`
+// if a token is not a number or the count differs from `expected` (when expected >= 0).
+std::vector<double> parseNumbers(const std::string& line, int expected, const std::string& context);
+
+std::string trim(const std::string& text);
+
+}  // namespace detail
+}  // namespace io
+}  // namespace fluoro_tracker

@@ -1,0 +1,198 @@
+#include "fluoro_tracker/io/trial_config.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+
+#include <yaml-cpp/yaml.h>
+
+#include "fluoro_tracker/input_error.h"
+
+namespace fluoro_tracker {
+namespace io {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string resolvePath(const fs::path& base, const std::string& path) {
+  const fs::path p(path);
+  return (p.is_absolute() ? p : (base / p)).lexically_normal().string();
+}
+
+template <typename T>
+T required(const YAML::Node& node, const std::string& key, const std::string& context) {
+  const YAML::Node value = node[key];
+  if (!value) throw InputError(context + ": missing key '" + key + "'");
+  try {
+    return value.as<T>();
+  } catch (const YAML::Exception&) {
+    throw InputError(context + ": key '" + key + "' (line " +
+                     std::to_string(value.Mark().line + 1) + ") has the wrong type");
+  }
+}
+
+std::vector<double> numberList(const YAML::Node& node, const std::string& key, std::size_t size,
+                               const std::string& context) {
+  const auto values = required<std::vector<double>>(node, key, context);
+  if (values.size() != size) {
+    throw InputError(context + ": '" + key + "' must have " + std::to_string(size) +
+                     " numbers, has " + std::to_string(values.size()));
+  }
+  for (double v : values) {
+    if (!std::isfinite(v)) throw InputError(context + ": '" + key + "' has a non-finite value");
+  }
+  return values;
+}
+
+bool enabledFlag(const YAML::Node& joint, const std::string& key, const std::string& context) {
+  const YAML::Node section = joint[key];
+  if (!section) return false;
+  if (!section.IsMap()) throw InputError(context + ": '" + key + "' must be a map");
+  if (!section["enabled"]) return true;
+  return required<bool>(section, "enabled", context + "." + key);
+}
+
+}  // namespace
+
+const BoneConfig* TrialConfig::findBone(const std::string& name) const {
+  for (const auto& bone : bones) {
+    if (bone.name == name) return &bone;
+  }
+  return nullptr;
+}
+
+TrialConfig loadTrialConfig(const std::string& path) {
+  if (!fs::exists(path)) throw InputError("trial config '" + path + "' does not exist");
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::ParserException& e) {
+    throw InputError("trial config '" + path + "' is not valid YAML (line " +
+                     std::to_string(e.mark.line + 1) + "): " + e.msg);
+  } catch (const YAML::Exception& e) {
+    throw InputError("trial config '" + path + "' cannot be read: " + e.what());
+  }
+  if (!root.IsMap()) throw InputError("trial config '" + path + "' must be a YAML map");
+  const fs::path base = fs::absolute(path).parent_path();
+
+  TrialConfig config;
+  if (root["fixed_frame"]) config.fixed_frame = required<std::string>(root, "fixed_frame", path);
+
+  const YAML::Node bones = root["bones"];
+  if (!bones || !bones.IsSequence() || bones.size() == 0) {
+    throw InputError("trial config '" + path + "': 'bones' must be a non-empty list");
+  }
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < bones.size(); ++i) {
+    const YAML::Node b = bones[i];
+    const std::string context = "trial config '" + path + "' bones[" + std::to_string(i) + "]";
+    BoneConfig bone;
+    bone.name = required<std::string>(b, "name", context);
+    if (bone.name.empty()) throw InputError(context + ": empty bone name");
+    if (!names.insert(bone.name).second) {
+      throw InputError(context + ": bone name '" + bone.name + "' is used twice");
+    }
+    bone.mesh = resolvePath(base, required<std::string>(b, "mesh", context));
+    if (b["mesh_units"]) {
+      bone.mesh_units =
+          geometry::parseLengthUnit(required<std::string>(b, "mesh_units", context), context);
+    }
+    if (b["articular_mesh"]) {
+      bone.articular_mesh = resolvePath(base, required<std::string>(b, "articular_mesh", context));
+    }
+    if (const YAML::Node pose = b["initial_pose"]) {
+      const std::string pc = context + ".initial_pose";
+      const auto p = numberList(pose, "position_m", 3, pc);
+      const auto q = numberList(pose, "orientation_xyzw", 4, pc);
+      const Eigen::Quaterniond rotation(q[3], q[0], q[1], q[2]);
+      if (std::abs(rotation.norm() - 1.0) > 1e-3) {
+        throw InputError(pc + ": orientation_xyzw is not a unit quaternion");
+      }
+      bone.initial_pose = geometry::makePose(rotation, Eigen::Vector3d(p[0], p[1], p[2]));
+    }
+    config.bones.push_back(std::move(bone));
+  }
+
+  if (const YAML::Node joints = root["joints"]) {
+    if (!joints.IsSequence())
+      throw InputError("trial config '" + path + "': 'joints' must be a list");
+    for (std::size_t i = 0; i < joints.size(); ++i) {
+      const YAML::Node j = joints[i];
+      const std::string context = "trial config '" + path + "' joints[" + std::to_string(i) + "]";
+      JointConfig joint;
+      joint.name = required<std::string>(j, "name", context);
+      joint.parent = required<std::string>(j, "parent", context);
+      joint.child = required<std::string>(j, "child", context);
+      if (j["type"]) joint.type = required<std::string>(j, "type", context);
+      for (const auto& bone : {joint.parent, joint.child}) {
+        if (!names.count(bone)) {
+          throw InputError(context + ": bone '" + bone + "' is not listed under 'bones'");
+        }
+      }
+      joint.contact_enabled = enabledFlag(j, "contact", context);
+      joint.ligaments_enabled = enabledFlag(j, "ligaments", context);
+      config.joints.push_back(std::move(joint));
+    }
+  }
+  return config;
+}
+
+void saveTrialConfig(const std::string& path, const TrialConfig& config) {
+  const fs::path base = fs::absolute(path).parent_path();
+  const auto relative = [&base](const std::string& p) {
+    const fs::path rel = fs::path(p).lexically_relative(base);
+    return (!rel.empty() && *rel.begin() != "..") ? rel.string() : p;
+  };
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  if (!config.fixed_frame.empty())
+    out << YAML::Key << "fixed_frame" << YAML::Value << config.fixed_frame;
+  out << YAML::Key << "bones" << YAML::Value << YAML::BeginSeq;
+  for (const auto& bone : config.bones) {
+    out << YAML::BeginMap;
+    out << YAML::Key << "name" << YAML::Value << bone.name;
+    out << YAML::Key << "mesh" << YAML::Value << relative(bone.mesh);
+    out << YAML::Key << "mesh_units" << YAML::Value << geometry::toString(bone.mesh_units);
+    if (!bone.articular_mesh.empty()) {
+      out << YAML::Key << "articular_mesh" << YAML::Value << relative(bone.articular_mesh);
+    }
+    if (bone.initial_pose) {
+      const Eigen::Vector3d t = bone.initial_pose->translation();
+      const Eigen::Quaterniond q(bone.initial_pose->linear());
+      out << YAML::Key << "initial_pose" << YAML::Value << YAML::BeginMap;
+      out << YAML::Key << "position_m" << YAML::Value << YAML::Flow
+          << std::vector<double>{t.x(), t.y(), t.z()};
+      out << YAML::Key << "orientation_xyzw" << YAML::Value << YAML::Flow
+          << std::vector<double>{q.x(), q.y(), q.z(), q.w()};
+      out << YAML::EndMap;
+    }
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  if (!config.joints.empty()) {
+    out << YAML::Key << "joints" << YAML::Value << YAML::BeginSeq;
+    for (const auto& joint : config.joints) {
+      out << YAML::BeginMap;
+      out << YAML::Key << "name" << YAML::Value << joint.name;
+      out << YAML::Key << "parent" << YAML::Value << joint.parent;
+      out << YAML::Key << "child" << YAML::Value << joint.child;
+      out << YAML::Key << "type" << YAML::Value << joint.type;
+      out << YAML::Key << "contact" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+          << "enabled" << YAML::Value << joint.contact_enabled << YAML::EndMap;
+      out << YAML::Key << "ligaments" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
+          << "enabled" << YAML::Value << joint.ligaments_enabled << YAML::EndMap;
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+  }
+  out << YAML::EndMap;
+  std::ofstream file(path);
+  if (!file) throw InputError("cannot write trial config '" + path + "'");
+  file << "# fluoro_tracker trial configuration (see README and docs: interfaces.md)\n"
+       << out.c_str() << "\n";
+  if (!file) throw InputError("failed while writing trial config '" + path + "'");
+}
+
+}  // namespace io
+}  // namespace fluoro_tracker

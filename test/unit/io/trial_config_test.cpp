@@ -1,0 +1,105 @@
+#include "fluoro_tracker/io/trial_config.h"
+
+#include <filesystem>
+
+#include "../test_support.h"
+
+using namespace fluoro_tracker;
+using test_support::TempDir;
+
+TEST(TrialConfig, ReadsTheContractExample) {
+  TempDir dir;
+  test_support::writeText(dir.file("trial.yaml"), R"(
+fixed_frame: fluoro_optical
+bones:
+  - name: femur
+    mesh: meshes/femur.stl
+    mesh_units: mm
+    initial_pose:
+      position_m: [0.0, 0.01, 0.9]
+      orientation_xyzw: [0.0, 0.0, 0.0, 1.0]
+  - name: tibia
+    mesh: /abs/tibia.stl
+    mesh_units: m
+    articular_mesh: meshes/insert.stl
+joints:
+  - name: knee
+    parent: femur
+    child: tibia
+    type: knee
+    contact: {enabled: true, dead_band_mm: 1.0}
+    ligaments: {enabled: false}
+)");
+  const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
+  EXPECT_EQ(c.fixed_frame, "fluoro_optical");
+  ASSERT_EQ(c.bones.size(), 2u);
+  EXPECT_EQ(c.bones[0].mesh, (std::filesystem::path(dir.path()) / "meshes/femur.stl").string());
+  EXPECT_EQ(c.bones[0].mesh_units, geometry::LengthUnit::kMillimetre);
+  ASSERT_TRUE(c.bones[0].initial_pose.has_value());
+  EXPECT_TRUE(c.bones[0].initial_pose->translation().isApprox(Eigen::Vector3d(0.0, 0.01, 0.9)));
+  EXPECT_EQ(c.bones[1].mesh, "/abs/tibia.stl");
+  EXPECT_EQ(c.bones[1].mesh_units, geometry::LengthUnit::kMetre);
+  EXPECT_FALSE(c.bones[1].initial_pose.has_value());
+  EXPECT_EQ(c.bones[1].articular_mesh,
+            (std::filesystem::path(dir.path()) / "meshes/insert.stl").string());
+  ASSERT_EQ(c.joints.size(), 1u);
+  EXPECT_TRUE(c.joints[0].contact_enabled);
+  EXPECT_FALSE(c.joints[0].ligaments_enabled);
+  EXPECT_NE(c.findBone("tibia"), nullptr);
+  EXPECT_EQ(c.findBone("patella"), nullptr);
+}
+
+TEST(TrialConfig, SaveThenLoadRoundTrip) {
+  TempDir dir;
+  io::TrialConfig c;
+  c.fixed_frame = "lab";
+  io::BoneConfig femur;
+  femur.name = "femur";
+  femur.mesh = dir.file("models/femur.stl");
+  femur.initial_pose =
+      geometry::makePose(geometry::rotationZ(0.4), Eigen::Vector3d(0.01, 0.02, 1.0));
+  io::BoneConfig tibia;
+  tibia.name = "tibia";
+  tibia.mesh = dir.file("models/tray.stl");
+  tibia.articular_mesh = dir.file("models/insert.stl");
+  c.bones = {femur, tibia};
+  c.joints = {{"knee", "femur", "tibia", "knee", true, false}};
+  io::saveTrialConfig(dir.file("trial.yaml"), c);
+  const io::TrialConfig r = io::loadTrialConfig(dir.file("trial.yaml"));
+  EXPECT_EQ(r.fixed_frame, "lab");
+  ASSERT_EQ(r.bones.size(), 2u);
+  EXPECT_EQ(r.bones[0].mesh, femur.mesh);
+  EXPECT_EQ(r.bones[1].articular_mesh, tibia.articular_mesh);
+  ASSERT_TRUE(r.bones[0].initial_pose.has_value());
+  EXPECT_TRUE(r.bones[0].initial_pose->matrix().isApprox(femur.initial_pose->matrix(), 1e-9));
+  ASSERT_EQ(r.joints.size(), 1u);
+  EXPECT_TRUE(r.joints[0].contact_enabled);
+  EXPECT_FALSE(r.joints[0].ligaments_enabled);
+}
+
+TEST(TrialConfig, BadYamlNamesFileKeyAndLine) {
+  TempDir dir;
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("missing.yaml")), "does not exist");
+  test_support::writeText(dir.file("syntax.yaml"), "bones:\n  - name: [femur\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("syntax.yaml")), "not valid YAML (line");
+  test_support::writeText(dir.file("nobones.yaml"), "fixed_frame: x\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("nobones.yaml")),
+                    "'bones' must be a non-empty list");
+  test_support::writeText(dir.file("nomesh.yaml"), "bones:\n  - name: femur\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("nomesh.yaml")), "bones[0]: missing key 'mesh'");
+  test_support::writeText(dir.file("units.yaml"),
+                          "bones:\n  - {name: femur, mesh: f.stl, mesh_units: cm}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("units.yaml")), "unknown length unit 'cm'");
+  test_support::writeText(dir.file("dup.yaml"),
+                          "bones:\n  - {name: a, mesh: f.stl}\n  - {name: a, mesh: g.stl}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("dup.yaml")), "used twice");
+  test_support::writeText(
+      dir.file("quat.yaml"),
+      "bones:\n  - name: a\n    mesh: f.stl\n    initial_pose: {position_m: [0,0,1], "
+      "orientation_xyzw: [0,0,0,3]}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("quat.yaml")), "not a unit quaternion");
+  test_support::writeText(dir.file("joint.yaml"),
+                          "bones:\n  - {name: femur, mesh: f.stl}\njoints:\n  - {name: knee, "
+                          "parent: femur, child: tibia}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("joint.yaml")), "bone 'tibia' is not listed");
+}
