@@ -1,0 +1,45 @@
+#pragma once
+
+#include "fluoro_tracker/geometry/mesh.h"
+
+namespace fluoro_tracker {
+namespace sim {
+
+// Synthetic total-knee components of realistic size, generated in code so that the demo and
+// tests need no download. Lengths in metres. Frames follow the ISB convention used by the
+// trial YAML: X anterior, Y superior, Z to the right (lateral for a right knee).
+//
+// Femoral component (femur frame): origin on the flexion axis, the centre of the posterior
+// condylar arcs. A J-curved shell ~70 mm wide: anterior flange, distal and posterior condyles
+// with a trochlear groove / intercondylar notch, inner box cuts (anterior, chamfers, distal,
+// posterior), and a slightly smaller lateral condyle so that views are not mirror images.
+//
+// Tibial tray (tibia frame): origin at the centre of the tray's top surface; a 4 mm plate with a
+// posterior cruciate notch and a 36 mm stem. Tibial insert: polyethylene on the tray, 10 mm
+// thick, with two dished condylar tracks; nearly invisible in X-ray, it carries the contact.
+struct KneeImplantSet {
+  geometry::Mesh femoral_component;
+  geometry::Mesh tibial_tray;
+  geometry::Mesh tibial_insert;
+};
+
+struct KneeImplantDimensions {
+  double width_mm = 70.0;                  // medial-lateral width of the femoral component
+  double distal_radius_mm = 25.0;          // articular radius, distal and anterior
+  double posterior_radius_mm = 23.0;       // articular radius, posterior condyles
+  double lateral_condyle_offset_mm = 1.0;  // lateral condyle smaller by this much
+  double tray_ap_mm = 48.0;
+  double tray_ml_mm = 74.0;
+  double insert_thickness_mm = 10.0;
+  double dish_depth_mm = 3.0;
+};
+
+KneeImplantSet makeKneeImplants(const KneeImplantDimensions& dimensions = {});
+
+// Height (m, tibia frame) of the insert's articular surface above (x, z) (m), and whether
+// (x, z) lies over the insert.
+double insertSurfaceHeight(const KneeImplantDimensions& dimensions, double x, double z);
+bool isOverInsert(const KneeImplantDimensions& dimensions, double x, double z);
+
+}  // namespace sim
+}  // namespace fluoro_tracker

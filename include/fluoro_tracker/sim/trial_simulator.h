@@ -1,0 +1,107 @@
+#pragma once
+
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "fluoro_tracker/geometry/mesh.h"
+#include "fluoro_tracker/geometry/xray_camera.h"
+#include "fluoro_tracker/imaging/detector_model.h"
+#include "fluoro_tracker/io/trial_config.h"
+#include "fluoro_tracker/sim/implant_models.h"
+#include "fluoro_tracker/sim/knee_motion.h"
+
+namespace fluoro_tracker {
+namespace sim {
+
+struct TrialSimulatorSettings {
+  int image_width = 1024;
+  int image_height = 1024;
+  double principal_distance_mm = 1200.0;  // source to detector
+  double pixel_spacing_mm = 0.38;
+  double source_to_joint_mm = 1000.0;
+  int views = 1;                      // 1: single plane; 2: bi-plane
+  double view_separation_deg = 55.0;  // angle between the two beams (bi-plane)
+  double view_yaw_deg = 4.0;          // beam off the pure lateral direction, about vertical
+  double view_roll_deg = 2.0;         // and about the beam's horizontal axis
+  std::string femoral_material = "cocr";
+  std::string tray_material = "cocr";
+  std::string insert_material = "polyethylene";
+  bool anatomy = true;  // bone shafts, metaphyses and soft tissue around the implants
+  KneeMotionSettings motion;
+  imaging::DetectorSettings detector;
+  KneeImplantDimensions implants;
+  std::uint64_t seed = 1;
+  double start_stamp_s = 100.0;  // stamp of frame 0 (bags cannot hold time 0)
+
+  TrialSimulatorSettings();
+  void validate() const;
+};
+
+// Loads settings from a YAML file (see config/simulate_knee.yaml); keys not given keep their
+// defaults. Throws InputError naming the file and key.
+TrialSimulatorSettings loadSimulatorSettings(const std::string& path);
+
+struct SimulatedView {
+  std::string name;             // "fluoro" (single plane) or "fluoro1", "fluoro2"
+  geometry::XrayCamera camera;  // worldFromCamera() is the pose in the trial's fixed frame
+};
+
+struct SimulatedFrame {
+  int index = 0;
+  double stamp_s = 0.0;
+  double flexion_deg = 0.0;
+  geometry::Pose femur = geometry::Pose::Identity();  // in the fixed frame, metres
+  geometry::Pose tibia = geometry::Pose::Identity();
+  std::vector<cv::Mat> images;  // one per view (empty when only poses were asked for)
+};
+
+// Simulates a single- or bi-plane fluoroscopy trial of a total knee moving through a flexion
+// cycle with the femur resting on the insert, and renders each frame.
+class TrialSimulator {
+ public:
+  static constexpr const char* kFemur = "femur";
+  static constexpr const char* kTibia = "tibia";
+
+  explicit TrialSimulator(const TrialSimulatorSettings& settings);
+
+  const TrialSimulatorSettings& settings() const { return settings_; }
+  const KneeImplantSet& implants() const { return implants_; }
+  const std::vector<SimulatedView>& views() const { return views_; }
+  // "fluoro_optical" for a single view, "lab" for bi-plane (the first view's optical frame).
+  const std::string& fixedFrame() const { return fixed_frame_; }
+  int frameCount() const { return settings_.motion.frames; }
+
+  // True poses of frame `index` without rendering.
+  SimulatedFrame truth(int index) const;
+  // True poses and the rendered images of frame `index`. Noise comes from `rng`.
+  SimulatedFrame render(int index, std::mt19937_64* rng) const;
+  // Line integral (attenuation) image of frame `index` in one view, before the detector.
+  cv::Mat lineIntegral(int index, int view) const;
+
+  // Writes femoral_component.stl, tibial_tray.stl and tibial_insert.stl (mm) into `directory`.
+  void writeModels(const std::string& directory) const;
+  // The trial YAML content for models written by writeModels() into `model_directory`, with the
+  // true first-frame poses as initial poses.
+  io::TrialConfig trialConfig(const std::string& model_directory) const;
+
+ private:
+  struct AnatomyPart {
+    geometry::Mesh mesh;
+    bool on_femur;
+    double attenuation_per_mm;
+  };
+
+  TrialSimulatorSettings settings_;
+  KneeImplantSet implants_;
+  KneeContactSolver contact_;
+  std::vector<AnatomyPart> anatomy_;
+  std::vector<SimulatedView> views_;
+  std::string fixed_frame_;
+};
+
+}  // namespace sim
+}  // namespace fluoro_tracker

@@ -1,0 +1,164 @@
+#include "fluoro_tracker/sim/implant_models.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "fluoro_tracker/sim/mesh_builder.h"
+
+namespace fluoro_tracker {
+namespace sim {
+namespace {
+
+using geometry::Mesh;
+
+constexpr double kDeg = M_PI / 180.0;
+
+// Everything below is built in millimetres and scaled to metres at the end.
+
+// Tray/insert outline: an ellipse with a posterior cruciate notch (theta from +x = anterior
+// toward +z = lateral; the notch is at theta = pi, posterior).
+double trayRadius(const KneeImplantDimensions& d, double theta, double shrink) {
+  const double a = 0.5 * d.tray_ap_mm * shrink;
+  const double b = 0.5 * d.tray_ml_mm * shrink;
+  const double c = std::cos(theta);
+  const double s = std::sin(theta);
+  const double ellipse = a * b / std::sqrt(b * b * c * c + a * a * s * s);
+  double wrapped = std::remainder(theta - M_PI, 2.0 * M_PI);
+  return ellipse * (1.0 - 0.22 * std::exp(-(wrapped * wrapped) / (2.0 * 0.18 * 0.18)));
+}
+
+constexpr double kInsertShrink = 0.97;
+
+double dishOffsetMm(const KneeImplantDimensions& d, double x, double z) {
+  // Two condylar tracks centred 21 mm either side, slightly posterior.
+  const double track = 21.0;
+  double offset = 0.0;
+  for (double zc : {-track, track}) {
+    const double dz = z - zc;
+    const double dx = x + 2.0;
+    offset = std::min(offset, -d.dish_depth_mm * std::exp(-(dz * dz) / (2.0 * 9.0 * 9.0) -
+                                                          (dx * dx) / (2.0 * 13.0 * 13.0)));
+  }
+  return offset;
+}
+
+// Inner (bone-facing) surface of the femoral component: distance from the flexion axis to the
+// box cuts along the direction (cos phi, -sin phi) in the sagittal plane.
+double boxCutDistance(double phi) {
+  const Eigen::Vector2d direction(std::cos(phi), -std::sin(phi));
+  struct Cut {
+    Eigen::Vector2d normal;
+    double distance;
+  };
+  const double r2 = std::sqrt(0.5);
+  const Cut cuts[] = {
+      {{1.0, 0.0}, 17.0},   // anterior
+      {{r2, -r2}, 20.0},    // anterior chamfer
+      {{0.0, -1.0}, 18.0},  // distal
+      {{-r2, -r2}, 20.0},   // posterior chamfer
+      {{-1.0, 0.0}, 16.0},  // posterior
+      {{0.0, 1.0}, 60.0},   // top of the box (never reached by the component)
+  };
+  double best = 1e9;
+  for (const Cut& cut : cuts) {
+    const double along = cut.normal.dot(direction);
+    if (along > 1e-9) best = std::min(best, cut.distance / along);
+  }
+  return best;
+}
+
+Mesh makeFemoralComponent(const KneeImplantDimensions& d) {
+  const double half_width = 0.5 * d.width_mm;
+  const double flange_height = 36.0;
+  const double phi_end = 212.0 * kDeg;  // posterior condyles end where they meet the posterior cut
+
+  // Sweep path: the anterior flange straight down to the flexion axis level, then around the
+  // condyles from anterior (phi = 0) through distal (90 deg) to posterior (180 deg) and beyond.
+  struct PathPoint {
+    double phi;     // <0 marks flange stations
+    double height;  // flange station height above the axis
+  };
+  std::vector<PathPoint> path;
+  const int flange_stations = 9;
+  for (int i = 0; i < flange_stations; ++i) {
+    path.push_back({-1.0, flange_height * (1.0 - static_cast<double>(i) / flange_stations)});
+  }
+  const int arc_stations = 96;
+  for (int i = 0; i <= arc_stations; ++i) path.push_back({phi_end * i / arc_stations, 0.0});
+
+  const auto articularRadius = [&](double phi) {
+    // Distal/anterior radius blends to the smaller posterior radius between 100 and 160 deg.
+    const double blend = std::clamp((phi / kDeg - 100.0) / 60.0, 0.0, 1.0);
+    const double smooth = blend * blend * (3.0 - 2.0 * blend);
+    return d.distal_radius_mm + (d.posterior_radius_mm - d.distal_radius_mm) * smooth;
+  };
+
+  std::vector<SweepStation> stations;
+  std::vector<double> station_phi;
+  for (const PathPoint& p : path) {
+    const double phi = std::max(p.phi, 0.0);
+    const Eigen::Vector3d direction(std::cos(phi), -std::sin(phi), 0.0);
+    stations.push_back({Eigen::Vector3d(0.0, p.height, 0.0), direction, Eigen::Vector3d::UnitZ()});
+    station_phi.push_back(p.phi);
+  }
+
+  std::vector<double> columns;
+  const int n_columns = 29;
+  for (int c = 0; c < n_columns; ++c)
+    columns.push_back(-half_width + d.width_mm * c / (n_columns - 1));
+
+  const auto inner = [&](int i, double) { return boxCutDistance(std::max(station_phi[i], 0.0)); };
+  const auto outer = [&](int i, double z) {
+    const double phi = std::max(station_phi[i], 0.0);
+    const double phi_deg = phi / kDeg;
+    double r = articularRadius(phi);
+    // Lateral (+z) condyle slightly smaller on the distal and posterior surfaces.
+    const double lateral = 0.5 * (1.0 + std::tanh(z / 4.0));
+    r -= d.lateral_condyle_offset_mm * lateral * std::clamp((phi_deg - 40.0) / 40.0, 0.0, 1.0);
+    // Trochlear groove anteriorly, deepening into the intercondylar notch posteriorly.
+    const double groove_depth = 2.5 + 4.0 * std::clamp((phi_deg - 90.0) / 60.0, 0.0, 1.0);
+    const double groove_width = 6.0 + 3.0 * std::clamp((phi_deg - 90.0) / 60.0, 0.0, 1.0);
+    r -= groove_depth * std::exp(-(z * z) / (2.0 * groove_width * groove_width));
+    // Rounded medial and lateral edges.
+    r -= 3.0 * std::pow(std::abs(z) / half_width, 8.0);
+    // Never thinner than 1.5 mm.
+    return std::max(r, boxCutDistance(phi) + 1.5);
+  };
+  return sweepProfile(stations, columns, inner, outer);
+}
+
+}  // namespace
+
+double insertSurfaceHeight(const KneeImplantDimensions& d, double x, double z) {
+  return 1e-3 * (d.insert_thickness_mm + dishOffsetMm(d, 1e3 * x, 1e3 * z));
+}
+
+bool isOverInsert(const KneeImplantDimensions& d, double x, double z) {
+  const double theta = std::atan2(z, x);
+  return std::hypot(x, z) * 1e3 <= trayRadius(d, theta, kInsertShrink);
+}
+
+KneeImplantSet makeKneeImplants(const KneeImplantDimensions& d) {
+  KneeImplantSet set;
+  set.femoral_component = makeFemoralComponent(d).scaled(1e-3);
+
+  const int outline_points = 96;
+  const auto tray_outline =
+      radialOutline([&](double theta) { return trayRadius(d, theta, 1.0); }, outline_points);
+  Mesh tray = extrudeOutline(tray_outline, -4.0, 0.0);
+  // Stem: a separate closed component touching the plate's underside, so path lengths through
+  // the tray stay exact (the shared plane's exit and entry cancel).
+  tray.append(extrudeOutline(radialOutline([](double) { return 7.0; }, 40), -40.0, -4.0));
+  set.tibial_tray = tray.scaled(1e-3);
+
+  const auto insert_outline = radialOutline(
+      [&](double theta) { return trayRadius(d, theta, kInsertShrink); }, outline_points);
+  set.tibial_insert =
+      extrudeOutline(insert_outline, 0.0, d.insert_thickness_mm, 14, [&](double x, double z) {
+        return dishOffsetMm(d, x, z);
+      }).scaled(1e-3);
+  return set;
+}
+
+}  // namespace sim
+}  // namespace fluoro_tracker

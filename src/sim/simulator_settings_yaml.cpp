@@ -1,0 +1,134 @@
+// Fills TrialSimulatorSettings from YAML: the one place where simulator keys are named.
+#include <filesystem>
+
+#include <yaml-cpp/yaml.h>
+
+#include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/sim/trial_simulator.h"
+
+namespace fluoro_tracker {
+namespace sim {
+namespace {
+
+class Reader {
+ public:
+  Reader(const YAML::Node& node, std::string context) : node_(node), context_(std::move(context)) {
+    if (node_ && !node_.IsMap()) throw InputError(context_ + " must be a map");
+  }
+
+  template <typename T>
+  void read(const std::string& key, T* value) const {
+    if (!node_) return;
+    const YAML::Node v = node_[key];
+    if (!v) return;
+    try {
+      *value = v.as<T>();
+    } catch (const YAML::Exception&) {
+      throw InputError(context_ + "." + key + " (line " + std::to_string(v.Mark().line + 1) +
+                       ") has the wrong type");
+    }
+  }
+
+  Reader child(const std::string& key) const {
+    return Reader(node_ ? node_[key] : YAML::Node(), context_ + "." + key);
+  }
+
+  // Rejects keys this reader does not know, so a typo is not silently ignored.
+  void allowOnly(std::initializer_list<const char*> keys) const {
+    if (!node_) return;
+    for (const auto& entry : node_) {
+      const std::string key = entry.first.as<std::string>();
+      bool known = false;
+      for (const char* k : keys) known = known || key == k;
+      if (!known) throw InputError(context_ + ": unknown key '" + key + "'");
+    }
+  }
+
+ private:
+  YAML::Node node_;
+  std::string context_;
+};
+
+}  // namespace
+
+TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
+  if (!std::filesystem::exists(path)) {
+    throw InputError("simulator settings '" + path + "' do not exist");
+  }
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::ParserException& e) {
+    throw InputError("simulator settings '" + path + "' are not valid YAML (line " +
+                     std::to_string(e.mark.line + 1) + "): " + e.msg);
+  }
+  TrialSimulatorSettings s;
+  const Reader r(root, "simulator settings '" + path + "'");
+  r.allowOnly({"image_width", "image_height", "principal_distance_mm", "pixel_spacing_mm",
+               "source_to_joint_mm", "views", "view_separation_deg", "view_yaw_deg",
+               "view_roll_deg", "femoral_material", "tray_material", "insert_material", "anatomy",
+               "seed", "start_stamp_s", "motion", "detector", "implants"});
+  r.read("image_width", &s.image_width);
+  r.read("image_height", &s.image_height);
+  r.read("principal_distance_mm", &s.principal_distance_mm);
+  r.read("pixel_spacing_mm", &s.pixel_spacing_mm);
+  r.read("source_to_joint_mm", &s.source_to_joint_mm);
+  r.read("views", &s.views);
+  r.read("view_separation_deg", &s.view_separation_deg);
+  r.read("view_yaw_deg", &s.view_yaw_deg);
+  r.read("view_roll_deg", &s.view_roll_deg);
+  r.read("femoral_material", &s.femoral_material);
+  r.read("tray_material", &s.tray_material);
+  r.read("insert_material", &s.insert_material);
+  r.read("anatomy", &s.anatomy);
+  r.read("seed", &s.seed);
+  r.read("start_stamp_s", &s.start_stamp_s);
+
+  const Reader m = r.child("motion");
+  m.allowOnly({"frames", "frame_rate_hz", "start_flexion_deg", "max_flexion_deg",
+               "internal_rotation_at_max_deg", "rollback_at_max_mm", "adduction_amplitude_deg",
+               "shank_inclination_ratio"});
+  m.read("frames", &s.motion.frames);
+  m.read("frame_rate_hz", &s.motion.frame_rate_hz);
+  m.read("start_flexion_deg", &s.motion.start_flexion_deg);
+  m.read("max_flexion_deg", &s.motion.max_flexion_deg);
+  m.read("internal_rotation_at_max_deg", &s.motion.internal_rotation_at_max_deg);
+  m.read("rollback_at_max_mm", &s.motion.rollback_at_max_mm);
+  m.read("adduction_amplitude_deg", &s.motion.adduction_amplitude_deg);
+  m.read("shank_inclination_ratio", &s.motion.shank_inclination_ratio);
+
+  const Reader d = r.child("detector");
+  d.allowOnly({"photons_per_pixel", "blur_sigma_px", "window_max_attenuation",
+               "window_min_attenuation", "implants_bright", "bit_depth",
+               "collimator_radius_fraction", "collimator_attenuation"});
+  d.read("photons_per_pixel", &s.detector.photons_per_pixel);
+  d.read("blur_sigma_px", &s.detector.blur_sigma_px);
+  d.read("window_max_attenuation", &s.detector.window_max_attenuation);
+  d.read("window_min_attenuation", &s.detector.window_min_attenuation);
+  d.read("implants_bright", &s.detector.implants_bright);
+  d.read("bit_depth", &s.detector.bit_depth);
+  d.read("collimator_radius_fraction", &s.detector.collimator_radius_fraction);
+  d.read("collimator_attenuation", &s.detector.collimator_attenuation);
+
+  const Reader i = r.child("implants");
+  i.allowOnly({"width_mm", "distal_radius_mm", "posterior_radius_mm", "lateral_condyle_offset_mm",
+               "tray_ap_mm", "tray_ml_mm", "insert_thickness_mm", "dish_depth_mm"});
+  i.read("width_mm", &s.implants.width_mm);
+  i.read("distal_radius_mm", &s.implants.distal_radius_mm);
+  i.read("posterior_radius_mm", &s.implants.posterior_radius_mm);
+  i.read("lateral_condyle_offset_mm", &s.implants.lateral_condyle_offset_mm);
+  i.read("tray_ap_mm", &s.implants.tray_ap_mm);
+  i.read("tray_ml_mm", &s.implants.tray_ml_mm);
+  i.read("insert_thickness_mm", &s.implants.insert_thickness_mm);
+  i.read("dish_depth_mm", &s.implants.dish_depth_mm);
+
+  try {
+    s.validate();
+  } catch (const InputError& e) {
+    throw InputError("simulator settings '" + path + "': " + e.what());
+  }
+  return s;
+}
+
+}  // namespace sim
+}  // namespace fluoro_tracker

@@ -1,0 +1,186 @@
+#include "fluoro_tracker/sim/trial_simulator.h"
+
+#include <cmath>
+#include <filesystem>
+
+#include "fluoro_tracker/imaging/material.h"
+#include "fluoro_tracker/imaging/renderer.h"
+#include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/sim/mesh_builder.h"
+
+namespace fluoro_tracker {
+namespace sim {
+namespace {
+
+using geometry::Mesh;
+using geometry::Pose;
+
+// Point of the tibia frame (m) placed on the first beam's axis at source_to_joint: between the
+// tray and the femoral flexion axis.
+const Eigen::Vector3d kJointCentreInTibia(0.0, 0.02, 0.0);
+
+Mesh ellipticCylinderM(double ap_mm, double ml_mm, double y0_mm, double y1_mm) {
+  return cylinderY(ap_mm, ml_mm, y0_mm, y1_mm, 64).scaled(1e-3);
+}
+
+}  // namespace
+
+TrialSimulatorSettings::TrialSimulatorSettings() {
+  // Image-intensifier look: a round field whose corners are collimated off.
+  detector.collimator_radius_fraction = 1.08;
+}
+
+void TrialSimulatorSettings::validate() const {
+  if (image_width < 16 || image_height < 16)
+    throw InputError("simulator: image size must be >= 16");
+  if (!(principal_distance_mm > 0.0) || !(pixel_spacing_mm > 0.0)) {
+    throw InputError("simulator: principal_distance_mm and pixel_spacing_mm must be > 0");
+  }
+  if (!(source_to_joint_mm > 100.0) || source_to_joint_mm >= principal_distance_mm) {
+    throw InputError("simulator: source_to_joint_mm must be > 100 and < principal_distance_mm");
+  }
+  if (views != 1 && views != 2) throw InputError("simulator: views must be 1 or 2");
+  for (const auto& m : {femoral_material, tray_material, insert_material}) {
+    imaging::materialByName(m);
+  }
+  motion.validate();
+  detector.validate();
+}
+
+TrialSimulator::TrialSimulator(const TrialSimulatorSettings& settings)
+    : settings_(settings),
+      implants_(makeKneeImplants(settings.implants)),
+      contact_(implants_, settings.implants) {
+  settings_.validate();
+  const double focal = settings_.principal_distance_mm / settings_.pixel_spacing_mm;
+  const double cx = 0.5 * (settings_.image_width - 1);
+  const double cy = 0.5 * (settings_.image_height - 1);
+  if (settings_.views == 1) {
+    fixed_frame_ = "fluoro_optical";
+    views_.push_back({"fluoro", geometry::XrayCamera(settings_.image_width, settings_.image_height,
+                                                     focal, focal, cx, cy, "fluoro_optical")});
+  } else {
+    fixed_frame_ = "lab";
+    // The second beam turns about the vertical (image y) axis through the joint centre.
+    const Eigen::Vector3d pivot(0.0, 0.0, 1e-3 * settings_.source_to_joint_mm);
+    const Pose turn = Eigen::Translation3d(pivot) *
+                      Eigen::AngleAxisd(geometry::degToRad(settings_.view_separation_deg),
+                                        Eigen::Vector3d::UnitY()) *
+                      Eigen::Translation3d(-pivot);
+    for (int v = 0; v < 2; ++v) {
+      const std::string name = "fluoro" + std::to_string(v + 1);
+      geometry::XrayCamera camera(settings_.image_width, settings_.image_height, focal, focal, cx,
+                                  cy, name + "_optical");
+      camera.setWorldFromCamera(v == 0 ? Pose::Identity() : turn);
+      views_.push_back({name, camera});
+    }
+  }
+
+  if (settings_.anatomy) {
+    const double soft = imaging::materialByName("soft_tissue").attenuation_per_mm;
+    const double cortical = imaging::materialByName("cortical_bone").attenuation_per_mm;
+    const double cancellous = imaging::materialByName("cancellous_bone").attenuation_per_mm;
+    // Tissue volumes are added on top of the soft-tissue background, so each uses its excess
+    // attenuation over soft tissue. Shafts are tubes: cortex minus a marrow core.
+    anatomy_.push_back({ellipticCylinderM(55, 60, -20, 400), true, soft});   // thigh
+    anatomy_.push_back({ellipticCylinderM(48, 46, -400, 20), false, soft});  // shank
+    anatomy_.push_back({ellipticCylinderM(16, 33, -14, 60), true,
+                        cancellous - soft});  // distal femur, inside the box cuts
+    anatomy_.push_back(
+        {ellipticCylinderM(15, 15, 60, 400), true, cortical - soft});               // femoral shaft
+    anatomy_.push_back({ellipticCylinderM(9, 9, 60, 400), true, soft - cortical});  // marrow
+    anatomy_.push_back(
+        {ellipticCylinderM(24, 36, -55, -4), false, cancellous - soft});  // tibial plateau
+    anatomy_.push_back(
+        {ellipticCylinderM(15, 15, -400, -55), false, cortical - soft});  // tibial shaft
+    anatomy_.push_back({ellipticCylinderM(9, 9, -400, -55), false, soft - cortical});  // marrow
+  }
+}
+
+SimulatedFrame TrialSimulator::truth(int index) const {
+  if (index < 0 || index >= frameCount()) {
+    throw InputError("simulator: frame " + std::to_string(index) + " is outside 0.." +
+                     std::to_string(frameCount() - 1));
+  }
+  const KneeFramePose knee = kneePoseAt(settings_.motion, index, contact_);
+  // Lateral view of the tibia: anterior to the image left, superior up, the beam along the
+  // medial-lateral axis; the shank inclines as the knee flexes, and the beam is a few degrees
+  // off pure lateral so that the two condyles do not project exactly onto each other.
+  Eigen::Matrix3d lateral;
+  lateral << -1, 0, 0, 0, -1, 0, 0, 0, 1;
+  const Eigen::Matrix3d rotation =
+      geometry::rotationY(geometry::degToRad(settings_.view_yaw_deg)) *
+      geometry::rotationX(geometry::degToRad(settings_.view_roll_deg)) * lateral *
+      geometry::rotationZ(geometry::degToRad(knee.shank_inclination_deg));
+  const Eigen::Vector3d joint(0.0, 0.0, 1e-3 * settings_.source_to_joint_mm);
+  SimulatedFrame frame;
+  frame.index = index;
+  frame.stamp_s = settings_.start_stamp_s + index / settings_.motion.frame_rate_hz;
+  frame.flexion_deg = knee.flexion_deg;
+  frame.tibia = geometry::makePose(rotation, joint - rotation * kJointCentreInTibia);
+  frame.femur = frame.tibia * knee.tibia_from_femur;
+  return frame;
+}
+
+cv::Mat TrialSimulator::lineIntegral(int index, int view) const {
+  const SimulatedFrame frame = truth(index);
+  const SimulatedView& v = views_.at(view);
+  const Pose camera_from_fixed = v.camera.worldFromCamera().inverse();
+  const Pose camera_from_femur = camera_from_fixed * frame.femur;
+  const Pose camera_from_tibia = camera_from_fixed * frame.tibia;
+  std::vector<imaging::RenderObject> objects = {
+      {&implants_.femoral_component, camera_from_femur,
+       imaging::materialByName(settings_.femoral_material).attenuation_per_mm},
+      {&implants_.tibial_tray, camera_from_tibia,
+       imaging::materialByName(settings_.tray_material).attenuation_per_mm},
+      {&implants_.tibial_insert, camera_from_tibia,
+       imaging::materialByName(settings_.insert_material).attenuation_per_mm},
+  };
+  for (const auto& part : anatomy_) {
+    objects.push_back({&part.mesh, part.on_femur ? camera_from_femur : camera_from_tibia,
+                       part.attenuation_per_mm});
+  }
+  return imaging::Renderer::lineIntegral(v.camera, objects);
+}
+
+SimulatedFrame TrialSimulator::render(int index, std::mt19937_64* rng) const {
+  SimulatedFrame frame = truth(index);
+  for (int v = 0; v < static_cast<int>(views_.size()); ++v) {
+    frame.images.push_back(
+        imaging::formRadiograph(lineIntegral(index, v), settings_.detector, rng));
+  }
+  return frame;
+}
+
+void TrialSimulator::writeModels(const std::string& directory) const {
+  std::filesystem::create_directories(directory);
+  implants_.femoral_component.save(directory + "/femoral_component.stl");
+  implants_.tibial_tray.save(directory + "/tibial_tray.stl");
+  implants_.tibial_insert.save(directory + "/tibial_insert.stl");
+}
+
+io::TrialConfig TrialSimulator::trialConfig(const std::string& model_directory) const {
+  const SimulatedFrame first = truth(0);
+  io::TrialConfig config;
+  config.fixed_frame = fixed_frame_;
+  io::BoneConfig femur;
+  femur.name = kFemur;
+  femur.mesh = model_directory + "/femoral_component.stl";
+  femur.initial_pose = first.femur;
+  io::BoneConfig tibia;
+  tibia.name = kTibia;
+  tibia.mesh = model_directory + "/tibial_tray.stl";
+  tibia.articular_mesh = model_directory + "/tibial_insert.stl";
+  tibia.initial_pose = first.tibia;
+  config.bones = {femur, tibia};
+  io::JointConfig knee;
+  knee.name = "knee";
+  knee.parent = kFemur;
+  knee.child = kTibia;
+  knee.type = "knee";
+  config.joints = {knee};
+  return config;
+}
+
+}  // namespace sim
+}  // namespace fluoro_tracker

@@ -1,0 +1,116 @@
+#include "fluoro_tracker/sim/trial_simulator.h"
+
+#include <opencv2/imgproc.hpp>
+#include "../test_support.h"
+
+#include "fluoro_tracker/imaging/renderer.h"
+
+using namespace fluoro_tracker;
+using test_support::TempDir;
+
+namespace {
+
+sim::TrialSimulatorSettings smallTrial(int views) {
+  sim::TrialSimulatorSettings s;
+  s.image_width = 512;
+  s.image_height = 512;
+  s.pixel_spacing_mm = 0.76;
+  s.views = views;
+  s.motion.frames = 5;
+  return s;
+}
+
+}  // namespace
+
+TEST(TrialSimulator, ImplantsAreInViewAndDarkerThanTissue) {
+  const sim::TrialSimulator simulator(smallTrial(1));
+  ASSERT_EQ(simulator.views().size(), 1u);
+  EXPECT_EQ(simulator.fixedFrame(), "fluoro_optical");
+  EXPECT_EQ(simulator.views()[0].camera.frameId(), "fluoro_optical");
+  std::mt19937_64 rng(1);
+  for (int i = 0; i < simulator.frameCount(); ++i) {
+    const sim::SimulatedFrame frame = simulator.render(i, &rng);
+    ASSERT_EQ(frame.images.size(), 1u);
+    EXPECT_TRUE(geometry::isValidPose(frame.femur));
+    EXPECT_TRUE(geometry::isValidPose(frame.tibia));
+    const auto& camera = simulator.views()[0].camera;
+    // Where the beam crosses the femoral component the frame is darker than the soft tissue
+    // around it.
+    const cv::Mat femur_path =
+        imaging::Renderer::pathLength(camera, simulator.implants().femoral_component, frame.femur);
+    const cv::Mat metal = femur_path > 0.003;
+    const cv::Mat around = (femur_path == 0.0);
+    ASSERT_GT(cv::countNonZero(metal), 200) << "femoral component not in view at frame " << i;
+    const double metal_grey = cv::mean(frame.images[0], metal)[0];
+    cv::Mat near_mask;
+    cv::dilate(metal, near_mask, cv::Mat(), cv::Point(-1, -1), 15);
+    const double tissue_grey = cv::mean(frame.images[0], near_mask & around)[0];
+    EXPECT_LT(metal_grey + 60.0, tissue_grey) << "frame " << i;
+  }
+}
+
+TEST(TrialSimulator, SameSeedSameFramesAndStampsAdvance) {
+  const sim::TrialSimulator simulator(smallTrial(1));
+  std::mt19937_64 a(42);
+  std::mt19937_64 b(42);
+  const auto f1 = simulator.render(2, &a);
+  const auto f2 = simulator.render(2, &b);
+  EXPECT_EQ(cv::norm(f1.images[0], f2.images[0], cv::NORM_INF), 0.0);
+  EXPECT_NEAR(simulator.truth(3).stamp_s - simulator.truth(2).stamp_s, 1.0 / 30.0, 1e-12);
+  EXPECT_THROW_WITH(simulator.truth(5), "outside");
+}
+
+TEST(TrialSimulator, BiplaneViewsSeeTheKneeFromDifferentDirections) {
+  const sim::TrialSimulator simulator(smallTrial(2));
+  ASSERT_EQ(simulator.views().size(), 2u);
+  EXPECT_EQ(simulator.fixedFrame(), "lab");
+  EXPECT_EQ(simulator.views()[1].camera.frameId(), "fluoro2_optical");
+  const Eigen::Vector3d beam1 = simulator.views()[0].camera.worldFromCamera().linear().col(2);
+  const Eigen::Vector3d beam2 = simulator.views()[1].camera.worldFromCamera().linear().col(2);
+  EXPECT_NEAR(std::acos(beam1.dot(beam2)) * 180.0 / M_PI, 55.0, 1e-9);
+  const sim::SimulatedFrame frame = simulator.truth(0);
+  for (const auto& view : simulator.views()) {
+    Eigen::Vector2d px;
+    const geometry::Pose camera_from_femur = view.camera.worldFromCamera().inverse() * frame.femur;
+    ASSERT_TRUE(view.camera.project(camera_from_femur.translation(), &px));
+    EXPECT_TRUE(view.camera.contains(px)) << view.name;
+  }
+}
+
+TEST(TrialSimulator, TrialConfigPointsAtWrittenModels) {
+  TempDir dir;
+  const sim::TrialSimulator simulator(smallTrial(1));
+  simulator.writeModels(dir.file("models"));
+  io::saveTrialConfig(dir.file("trial.yaml"), simulator.trialConfig(dir.file("models")));
+  const io::TrialConfig config = io::loadTrialConfig(dir.file("trial.yaml"));
+  ASSERT_EQ(config.bones.size(), 2u);
+  for (const auto& bone : config.bones) {
+    const geometry::Mesh mesh = geometry::Mesh::load(bone.mesh);
+    EXPECT_TRUE(mesh.topology().isClosed());
+    ASSERT_TRUE(bone.initial_pose.has_value());
+  }
+  EXPECT_TRUE(config.bones[0].initial_pose->isApprox(simulator.truth(0).femur, 1e-9));
+  EXPECT_FALSE(config.bones[1].articular_mesh.empty());
+  // The saved model is the simulated one (mm on disk, m in memory).
+  EXPECT_NEAR(geometry::Mesh::load(config.bones[0].mesh).volume(),
+              simulator.implants().femoral_component.volume(), 1e-9);
+}
+
+TEST(TrialSimulator, SettingsFileOverridesDefaultsAndRejectsTypos) {
+  TempDir dir;
+  test_support::writeText(
+      dir.file("sim.yaml"),
+      "views: 2\nmotion: {frames: 7, max_flexion_deg: 80}\ndetector: {bit_depth: 16}\n");
+  const auto s = sim::loadSimulatorSettings(dir.file("sim.yaml"));
+  EXPECT_EQ(s.views, 2);
+  EXPECT_EQ(s.motion.frames, 7);
+  EXPECT_DOUBLE_EQ(s.motion.max_flexion_deg, 80.0);
+  EXPECT_EQ(s.detector.bit_depth, 16);
+  EXPECT_EQ(s.image_width, 1024);  // default kept
+  test_support::writeText(dir.file("typo.yaml"), "motion: {frame: 7}\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("typo.yaml")), "unknown key 'frame'");
+  test_support::writeText(dir.file("bad.yaml"), "views: 3\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("bad.yaml")), "views must be 1 or 2");
+  test_support::writeText(dir.file("type.yaml"), "image_width: wide\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("type.yaml")), "image_width");
+}
