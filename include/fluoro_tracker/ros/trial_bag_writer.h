@@ -1,0 +1,43 @@
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <rosbag/bag.h>
+
+#include "fluoro_tracker/sim/trial_simulator.h"
+
+namespace fluoro_tracker {
+namespace ros_bridge {
+
+// Writes a simulated trial as a bag per the public contract: for one view /fluoro/image_raw and
+// /fluoro/camera_info (frame fluoro_optical); for N views /fluoroK/image_raw and
+// /fluoroK/camera_info (frames fluoroK_optical) plus latched /tf_static tying each optical
+// frame to the fixed frame. Message and bag times are the image stamps.
+class TrialBagWriter {
+ public:
+  // Opens (truncates) the bag and, for several views, writes /tf_static. Throws InputError if
+  // the file cannot be created.
+  TrialBagWriter(const std::string& path, const std::vector<sim::SimulatedView>& views,
+                 const std::string& fixed_frame, double first_stamp_s);
+  ~TrialBagWriter();
+
+  static std::string imageTopic(const sim::SimulatedView& view) {
+    return "/" + view.name + "/image_raw";
+  }
+  static std::string cameraInfoTopic(const sim::SimulatedView& view) {
+    return "/" + view.name + "/camera_info";
+  }
+
+  void write(const sim::SimulatedFrame& frame);
+  void close();
+
+ private:
+  rosbag::Bag bag_;
+  std::vector<sim::SimulatedView> views_;
+  std::uint32_t sequence_ = 0;
+};
+
+}  // namespace ros_bridge
+}  // namespace fluoro_tracker

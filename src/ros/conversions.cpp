@@ -1,0 +1,108 @@
+#include "fluoro_tracker/ros/conversions.h"
+
+#include <cmath>
+
+#include <cv_bridge/cv_bridge.h>
+#include <sensor_msgs/image_encodings.h>
+#include <opencv2/imgproc.hpp>
+
+#include "fluoro_tracker/input_error.h"
+
+namespace fluoro_tracker {
+namespace ros_bridge {
+
+namespace enc = sensor_msgs::image_encodings;
+
+sensor_msgs::CameraInfo toCameraInfo(const geometry::XrayCamera& camera, const ros::Time& stamp) {
+  sensor_msgs::CameraInfo info;
+  info.header.stamp = stamp;
+  info.header.frame_id = camera.frameId();
+  info.width = static_cast<std::uint32_t>(camera.width());
+  info.height = static_cast<std::uint32_t>(camera.height());
+  info.distortion_model = "plumb_bob";
+  info.D = {0.0, 0.0, 0.0, 0.0, 0.0};
+  const auto k = camera.cameraInfoK();
+  std::copy(k.begin(), k.end(), info.K.begin());
+  info.R = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+  info.P = {k[0], 0.0, k[2], 0.0, 0.0, k[4], k[5], 0.0, 0.0, 0.0, 1.0, 0.0};
+  return info;
+}
+
+geometry::XrayCamera fromCameraInfo(const sensor_msgs::CameraInfo& info) {
+  std::array<double, 9> k;
+  std::copy(info.K.begin(), info.K.end(), k.begin());
+  return geometry::XrayCamera::fromCameraInfo(
+      static_cast<int>(info.width), static_cast<int>(info.height), k, info.header.frame_id);
+}
+
+sensor_msgs::Image toImageMessage(const cv::Mat& image, const std_msgs::Header& header) {
+  std::string encoding;
+  if (image.type() == CV_8UC1) {
+    encoding = enc::MONO8;
+  } else if (image.type() == CV_16UC1) {
+    encoding = enc::MONO16;
+  } else {
+    throw InputError("only 8- or 16-bit single-channel images can be published (got OpenCV type " +
+                     std::to_string(image.type()) + ")");
+  }
+  sensor_msgs::Image message;
+  cv_bridge::CvImage(header, encoding, image).toImageMsg(message);
+  return message;
+}
+
+cv::Mat fromImageMessage(const sensor_msgs::Image& message) {
+  const std::string& e = message.encoding;
+  try {
+    if (e == enc::MONO8 || e == enc::MONO16 || e == enc::TYPE_8UC1 || e == enc::TYPE_16UC1) {
+      return cv_bridge::toCvCopy(message)->image;
+    }
+    if (e == enc::BGR8 || e == enc::RGB8 || e == enc::BGRA8 || e == enc::RGBA8) {
+      return cv_bridge::toCvCopy(message, enc::MONO8)->image;
+    }
+  } catch (const cv_bridge::Exception& ex) {
+    throw InputError("image in frame '" + message.header.frame_id +
+                     "' could not be converted: " + ex.what());
+  }
+  throw InputError("image in frame '" + message.header.frame_id + "' has encoding '" + e +
+                   "'; expected mono8 or mono16 (or 8-bit colour)");
+}
+
+geometry_msgs::Transform toTransformMessage(const geometry::Pose& pose) {
+  geometry_msgs::Transform t;
+  const Eigen::Quaterniond q(pose.linear());
+  t.translation.x = pose.translation().x();
+  t.translation.y = pose.translation().y();
+  t.translation.z = pose.translation().z();
+  t.rotation.x = q.x();
+  t.rotation.y = q.y();
+  t.rotation.z = q.z();
+  t.rotation.w = q.w();
+  return t;
+}
+
+geometry_msgs::Pose toPoseMessage(const geometry::Pose& pose) {
+  geometry_msgs::Pose p;
+  const Eigen::Quaterniond q(pose.linear());
+  p.position.x = pose.translation().x();
+  p.position.y = pose.translation().y();
+  p.position.z = pose.translation().z();
+  p.orientation.x = q.x();
+  p.orientation.y = q.y();
+  p.orientation.z = q.z();
+  p.orientation.w = q.w();
+  return p;
+}
+
+geometry::Pose fromPoseMessage(const geometry_msgs::Pose& m) {
+  const Eigen::Quaterniond q(m.orientation.w, m.orientation.x, m.orientation.y, m.orientation.z);
+  const Eigen::Vector3d t(m.position.x, m.position.y, m.position.z);
+  if (!t.allFinite() || !q.coeffs().allFinite()) throw InputError("pose has a non-finite value");
+  if (std::abs(q.norm() - 1.0) > 1e-3) {
+    throw InputError("pose orientation is not a unit quaternion (norm " + std::to_string(q.norm()) +
+                     ")");
+  }
+  return geometry::makePose(q, t);
+}
+
+}  // namespace ros_bridge
+}  // namespace fluoro_tracker
