@@ -108,18 +108,31 @@ void Renderer::accumulate(const geometry::XrayCamera& camera, const geometry::Me
       step_v[e] = (eb.x - ea.x) * kSubpixel;
     }
     for (int v = v0; v <= v1; ++v) {
-      std::int64_t w0 = row_value[0];
-      std::int64_t w1 = row_value[1];
-      std::int64_t w2 = row_value[2];
+      // The covered pixels of this row form one span; find it exactly from the integer edge
+      // functions (w_e + k * step_u[e] >= 0 for k pixels right of u0) instead of testing every
+      // pixel of the bounding box, which long sliver triangles make huge.
+      std::int64_t k_min = 0;
+      std::int64_t k_max = u1 - u0;
+      for (int e = 0; e < 3 && k_min <= k_max; ++e) {
+        const std::int64_t w = row_value[e];
+        const std::int64_t step = step_u[e];
+        if (step > 0) {
+          if (w < 0) k_min = std::max(k_min, (-w + step - 1) / step);
+        } else if (step < 0) {
+          if (w < 0) {
+            k_max = -1;
+          } else {
+            k_max = std::min(k_max, w / -step);
+          }
+        } else if (w < 0) {
+          k_max = -1;
+        }
+      }
       double* row = accumulator->ptr<double>(v);
       const double row_denominator = dv * v + c0;
-      for (int u = u0; u <= u1; ++u) {
-        if ((w0 | w1 | w2) >= 0) {
-          row[u] += numerator / std::abs(du * u + row_denominator);
-        }
-        w0 += step_u[0];
-        w1 += step_u[1];
-        w2 += step_u[2];
+      for (std::int64_t k = k_min; k <= k_max; ++k) {
+        const int u = u0 + static_cast<int>(k);
+        row[u] += numerator / std::abs(du * u + row_denominator);
       }
       for (int e = 0; e < 3; ++e) row_value[e] += step_v[e];
     }

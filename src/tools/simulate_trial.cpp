@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <iostream>
 
+#include <unistd.h>
+
 #include <boost/program_options.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -101,6 +103,7 @@ int main(int argc, char** argv) {
         deepest = i;
       }
     }
+    const bool interactive = isatty(STDOUT_FILENO);
     for (int i = 0; i < frames; ++i) {
       const sim::SimulatedFrame frame = simulator.render(i, &rng);
       bag.write(frame);
@@ -111,10 +114,12 @@ int main(int argc, char** argv) {
           preview_frames.push_back(frame.images[0]);
       }
       if ((i + 1) % 10 == 0 || i + 1 == frames) {
-        std::cout << "\rsimulate_trial: frame " << (i + 1) << "/" << frames << std::flush;
+        // Overwrite the line on a terminal; one line per update in a log.
+        std::cout << (interactive ? "\r" : "") << "simulate_trial: frame " << (i + 1) << "/"
+                  << frames << (interactive ? "" : "\n") << std::flush;
       }
     }
-    std::cout << "\n";
+    if (interactive) std::cout << "\n";
     bag.close();
     io::writePosesCsv(truth_path, truth);
     cv::imwrite(preview_path, makePreview(preview_frames));
