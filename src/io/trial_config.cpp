@@ -8,6 +8,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/io/yaml_file.h"
 
 namespace fluoro_tracker {
 namespace io {
@@ -63,16 +64,7 @@ const BoneConfig* TrialConfig::findBone(const std::string& name) const {
 }
 
 TrialConfig loadTrialConfig(const std::string& path) {
-  if (!fs::exists(path)) throw InputError("trial config '" + path + "' does not exist");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::ParserException& e) {
-    throw InputError("trial config '" + path + "' is not valid YAML (line " +
-                     std::to_string(e.mark.line + 1) + "): " + e.msg);
-  } catch (const YAML::Exception& e) {
-    throw InputError("trial config '" + path + "' cannot be read: " + e.what());
-  }
+  const YAML::Node root = loadYamlFile(path, "trial config");
   if (!root.IsMap()) throw InputError("trial config '" + path + "' must be a YAML map");
   const fs::path base = fs::absolute(path).parent_path();
 

@@ -4,6 +4,7 @@
 
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
+#include <tf2_eigen/tf2_eigen.h>
 #include <opencv2/imgproc.hpp>
 
 #include "fluoro_tracker/input_error.h"
@@ -68,29 +69,11 @@ cv::Mat fromImageMessage(const sensor_msgs::Image& message) {
 }
 
 geometry_msgs::Transform toTransformMessage(const geometry::Pose& pose) {
-  geometry_msgs::Transform t;
-  const Eigen::Quaterniond q(pose.linear());
-  t.translation.x = pose.translation().x();
-  t.translation.y = pose.translation().y();
-  t.translation.z = pose.translation().z();
-  t.rotation.x = q.x();
-  t.rotation.y = q.y();
-  t.rotation.z = q.z();
-  t.rotation.w = q.w();
-  return t;
+  return tf2::eigenToTransform(pose).transform;
 }
 
 geometry_msgs::Pose toPoseMessage(const geometry::Pose& pose) {
-  geometry_msgs::Pose p;
-  const Eigen::Quaterniond q(pose.linear());
-  p.position.x = pose.translation().x();
-  p.position.y = pose.translation().y();
-  p.position.z = pose.translation().z();
-  p.orientation.x = q.x();
-  p.orientation.y = q.y();
-  p.orientation.z = q.z();
-  p.orientation.w = q.w();
-  return p;
+  return tf2::toMsg(pose);
 }
 
 geometry::Pose fromPoseMessage(const geometry_msgs::Pose& m) {
@@ -101,7 +84,7 @@ geometry::Pose fromPoseMessage(const geometry_msgs::Pose& m) {
     throw InputError("pose orientation is not a unit quaternion (norm " + std::to_string(q.norm()) +
                      ")");
   }
-  return geometry::makePose(q, t);
+  return geometry::makePose(q, t);  // renormalises the quaternion
 }
 
 }  // namespace ros_bridge

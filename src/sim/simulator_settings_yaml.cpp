@@ -1,9 +1,8 @@
 // Fills TrialSimulatorSettings from YAML: the one place where simulator keys are named.
-#include <filesystem>
-
 #include <yaml-cpp/yaml.h>
 
 #include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/io/yaml_file.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
 
 namespace fluoro_tracker {
@@ -52,16 +51,7 @@ class Reader {
 }  // namespace
 
 TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
-  if (!std::filesystem::exists(path)) {
-    throw InputError("simulator settings '" + path + "' do not exist");
-  }
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::ParserException& e) {
-    throw InputError("simulator settings '" + path + "' are not valid YAML (line " +
-                     std::to_string(e.mark.line + 1) + "): " + e.msg);
-  }
+  const YAML::Node root = io::loadYamlFile(path, "simulator settings");
   TrialSimulatorSettings s;
   const Reader r(root, "simulator settings '" + path + "'");
   r.allowOnly({"image_width", "image_height", "principal_distance_mm", "pixel_spacing_mm",
