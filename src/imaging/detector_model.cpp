@@ -36,8 +36,9 @@ cv::Mat formRadiograph(const cv::Mat& line_integral, const DetectorSettings& s,
   // Single precision from here on: the display has at most 16 bits.
   cv::Mat attenuation;
   line_integral.convertTo(attenuation, CV_32F);
+  cv::Mat open_field;  // 255 where the collimator lets the beam through
   if (s.collimator_radius_fraction > 0.0) {
-    cv::Mat open_field = cv::Mat::zeros(rows, cols, CV_8U);
+    open_field = cv::Mat::zeros(rows, cols, CV_8U);
     const double radius = s.collimator_radius_fraction * 0.5 * std::min(rows, cols);
     constexpr int kShift = 4;  // sub-pixel circle centre for even image sizes
     cv::circle(open_field,
@@ -48,9 +49,22 @@ cv::Mat formRadiograph(const cv::Mat& line_integral, const DetectorSettings& s,
     cv::add(attenuation, cv::Scalar(s.collimator_attenuation), attenuation, ~open_field);
   }
 
-  // Transmitted fraction, blurred by the detector's point spread before quanta are counted.
+  // Primary transmission, plus scatter, blurred by the detector's point spread before quanta
+  // are counted. Scatter has no fine detail: it is computed at 1/8 resolution.
   cv::Mat transmitted;
   cv::exp(-attenuation, transmitted);
+  if (s.scatter_strength > 0.0) {
+    constexpr double kFactor = 0.125;
+    cv::Mat source = attenuation.mul(transmitted);
+    cv::Mat small;
+    cv::resize(source, small, cv::Size(), kFactor, kFactor, cv::INTER_AREA);
+    const double sigma = s.scatter_sigma_mm / s.pixel_spacing_mm * kFactor;
+    cv::GaussianBlur(small, small, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+    cv::Mat scatter;
+    cv::resize(small, scatter, transmitted.size(), 0, 0, cv::INTER_LINEAR);
+    if (!open_field.empty()) scatter.setTo(0.0f, ~open_field);  // the shutter blanks it too
+    transmitted += s.scatter_strength * scatter;
+  }
   if (s.blur_sigma_px > 0.0) {
     cv::GaussianBlur(transmitted, transmitted, cv::Size(0, 0), s.blur_sigma_px, s.blur_sigma_px,
                      cv::BORDER_REPLICATE);

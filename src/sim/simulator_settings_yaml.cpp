@@ -88,11 +88,13 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   m.read("shank_inclination_ratio", &s.motion.shank_inclination_ratio);
 
   const Reader d = r.child("detector");
-  d.allowOnly({"photons_per_pixel", "blur_sigma_px", "window_max_attenuation",
-               "window_min_attenuation", "implants_bright", "bit_depth",
+  d.allowOnly({"photons_per_pixel", "blur_sigma_px", "scatter_to_primary", "scatter_sigma_px",
+               "window_max_attenuation", "window_min_attenuation", "implants_bright", "bit_depth",
                "collimator_radius_fraction", "collimator_attenuation"});
   d.read("photons_per_pixel", &s.detector.photons_per_pixel);
   d.read("blur_sigma_px", &s.detector.blur_sigma_px);
+  d.read("scatter_strength", &s.detector.scatter_strength);
+  d.read("scatter_sigma_mm", &s.detector.scatter_sigma_mm);
   d.read("window_max_attenuation", &s.detector.window_max_attenuation);
   d.read("window_min_attenuation", &s.detector.window_min_attenuation);
   d.read("implants_bright", &s.detector.implants_bright);

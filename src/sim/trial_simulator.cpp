@@ -51,6 +51,7 @@ TrialSimulator::TrialSimulator(const TrialSimulatorSettings& settings)
     : settings_(settings),
       implants_(makeKneeImplants(settings.implants)),
       contact_(implants_, settings.implants) {
+  settings_.detector.pixel_spacing_mm = settings_.pixel_spacing_mm;
   settings_.validate();
   const double focal = settings_.principal_distance_mm / settings_.pixel_spacing_mm;
   const double cx = 0.5 * (settings_.image_width - 1);

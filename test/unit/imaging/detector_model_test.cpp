@@ -11,6 +11,7 @@ DetectorSettings ideal() {
   DetectorSettings s;
   s.photons_per_pixel = 0.0;
   s.blur_sigma_px = 0.0;
+  s.scatter_strength = 0.0;
   s.window_min_attenuation = 0.0;
   s.window_max_attenuation = 4.0;
   return s;
@@ -77,6 +78,34 @@ TEST(DetectorModel, BlurSpreadsAnEdgeAndCollimatorDarkensCorners) {
   const cv::Mat collimated = imaging::formRadiograph(cv::Mat::zeros(64, 64, CV_64F), s, &rng);
   EXPECT_EQ(collimated.at<std::uint8_t>(0, 0), 0);
   EXPECT_EQ(collimated.at<std::uint8_t>(32, 32), 255);
+}
+
+TEST(DetectorModel, ScatterFollowsTheSingleScatterModel) {
+  // Tissue (A = 2.5) with an opaque metal block in the middle and open air at the left edge.
+  cv::Mat a(256, 256, CV_64F, cv::Scalar(2.5));
+  a(cv::Rect(112, 112, 32, 32)) = 20.0;
+  a(cv::Rect(0, 0, 12, 256)) = 0.0;
+  DetectorSettings s = ideal();
+  s.bit_depth = 16;
+  s.window_max_attenuation = 10.0;
+  s.pixel_spacing_mm = 1.0;
+  s.scatter_sigma_mm = 20.0;
+  std::mt19937_64 rng(1);
+  const auto measured = [&](const cv::Mat& frame, int row, int col) {
+    return 10.0 * (1.0 - frame.at<std::uint16_t>(row, col) / 65535.0);
+  };
+  const cv::Mat without = imaging::formRadiograph(a, s, &rng);
+  EXPECT_NEAR(measured(without, 128, 128), 10.0, 1e-3);  // clipped: no photons behind metal
+  EXPECT_NEAR(measured(without, 200, 200), 2.5, 1e-3);
+  s.scatter_strength = 0.2;
+  const cv::Mat with = imaging::formRadiograph(a, s, &rng);
+  // Far from metal and air the scatter-to-primary ratio is strength x A = 0.5.
+  EXPECT_NEAR(measured(with, 220, 200), 2.5 - std::log(1.5), 0.05);
+  // Behind the metal only scatter arrives: dark, but not clipped.
+  EXPECT_GT(measured(with, 128, 128), 2.5);
+  EXPECT_LT(measured(with, 128, 128), 6.0);
+  // Open air generates no scatter; it only receives a little from the tissue beside it.
+  EXPECT_LT(measured(with, 128, 2), 0.0 + 1e-9);
 }
 
 TEST(DetectorModel, InvalidSettingsAreNamed) {
