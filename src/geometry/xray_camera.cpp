@@ -82,5 +82,11 @@ XrayCamera XrayCamera::scaled(double factor) const {
   return out;
 }
 
+XrayCamera XrayCamera::cropped(int x, int y, int width, int height) const {
+  XrayCamera out(width, height, fx_, fy_, cx_ - x, cy_ - y, frame_id_);
+  out.world_from_camera_ = world_from_camera_;
+  return out;
+}
+
 }  // namespace geometry
 }  // namespace fluoro_tracker

@@ -58,6 +58,9 @@ class XrayCamera {
   // The same camera with its image scaled by `factor` (e.g. 0.5 for a half-resolution pyramid
   // level); pixel centres stay consistent with cv::resize.
   XrayCamera scaled(double factor) const;
+  // The same camera restricted to the pixel rectangle starting at (x, y): pixel (u, v) of the
+  // crop is pixel (u + x, v + y) of this camera.
+  XrayCamera cropped(int x, int y, int width, int height) const;
 
  private:
   int width_ = 0;

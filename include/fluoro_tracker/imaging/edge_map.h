@@ -1,0 +1,63 @@
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include "fluoro_tracker/geometry/xray_camera.h"
+
+namespace fluoro_tracker {
+namespace imaging {
+
+struct EdgeMapSettings {
+  // Grey-level window from these percentiles of the region (robust to collimator borders and
+  // saturated metal); the edge detector is polarity-free, so implants may be dark or bright.
+  double window_low_percentile = 1.0;
+  double window_high_percentile = 99.0;
+  bool clahe = false;  // contrast-limited adaptive equalisation before edges
+  double clahe_clip_limit = 2.0;
+  double blur_sigma_px = 1.0;  // Gaussian smoothing before Canny, at the map's scale
+  double canny_low = 0.0;      // Canny thresholds on the 8-bit windowed image; 0: automatic
+  double canny_high = 0.0;
+  // Automatic thresholds: high = this fraction of the 99.5th percentile of the gradient
+  // magnitude, low = high * auto_low_ratio.
+  double auto_high_fraction = 0.3;
+  double auto_low_ratio = 0.4;
+  double max_distance_px = 40.0;  // distances are truncated here (and their gradient is 0)
+
+  void validate() const;
+};
+
+// Edge features of one view of one frame, in a region of interest and at one scale: Canny edges
+// and the distance from every pixel to the nearest edge, sampled bilinearly with its gradient.
+// Edges are pixel-accurate (Canny's non-maximum suppression has no sub-pixel refinement).
+// Pixel coordinates are those of camera(), the view's camera cropped to the region and scaled.
+class EdgeMap {
+ public:
+  // `image`: the full frame (8- or 16-bit grey). `roi`: region of the full frame (clipped to
+  // it; empty = whole frame). `scale`: e.g. 0.5 for half resolution. Throws InputError for an
+  // empty image, one whose size differs from the camera's, or an unsupported type.
+  EdgeMap(const cv::Mat& image, const geometry::XrayCamera& camera, const EdgeMapSettings& settings,
+          cv::Rect roi = cv::Rect(), double scale = 1.0);
+
+  const geometry::XrayCamera& camera() const { return camera_; }
+  const cv::Mat& edges() const { return edges_; }        // CV_8U, 255 on edges
+  const cv::Mat& distance() const { return distance_; }  // CV_32F, pixels (at this scale)
+  const cv::Mat& grey() const { return grey_; }          // CV_8U windowed region
+  double scale() const { return scale_; }
+  cv::Rect roi() const { return roi_; }
+
+  // Distance to the nearest edge at a sub-pixel position, and its gradient. Outside the map
+  // returns max_distance_px with zero gradient and false.
+  bool sample(double u, double v, double* distance, double* du, double* dv) const;
+
+ private:
+  geometry::XrayCamera camera_;
+  cv::Rect roi_;
+  double scale_ = 1.0;
+  double max_distance_ = 0.0;
+  cv::Mat grey_;
+  cv::Mat edges_;
+  cv::Mat distance_;
+};
+
+}  // namespace imaging
+}  // namespace fluoro_tracker

@@ -1,0 +1,126 @@
+#include "fluoro_tracker/imaging/edge_map.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "fluoro_tracker/input_error.h"
+
+namespace fluoro_tracker {
+namespace imaging {
+namespace {
+
+// Value below which `fraction` of the (non-negative) values of a CV_32F image lie.
+float percentile(const cv::Mat& values, double fraction) {
+  std::vector<float> v(values.begin<float>(), values.end<float>());
+  if (v.empty()) return 0.0f;
+  const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(fraction * (v.size() - 1)));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+}  // namespace
+
+void EdgeMapSettings::validate() const {
+  if (!(window_low_percentile >= 0.0 && window_high_percentile <= 100.0 &&
+        window_low_percentile < window_high_percentile)) {
+    throw InputError("edge map: window percentiles must satisfy 0 <= low < high <= 100");
+  }
+  if (!(max_distance_px > 1.0)) throw InputError("edge map: max_distance_px must be > 1");
+  if (!(blur_sigma_px >= 0.0)) throw InputError("edge map: blur_sigma_px must be >= 0");
+  if (canny_low < 0.0 || canny_high < 0.0)
+    throw InputError("edge map: Canny thresholds must be >= 0");
+}
+
+EdgeMap::EdgeMap(const cv::Mat& image, const geometry::XrayCamera& camera, const EdgeMapSettings& s,
+                 cv::Rect roi, double scale)
+    : scale_(scale), max_distance_(s.max_distance_px) {
+  s.validate();
+  if (image.empty())
+    throw InputError("edge map: the image of view '" + camera.frameId() + "' is empty");
+  if (image.cols != camera.width() || image.rows != camera.height()) {
+    throw InputError("edge map: image of view '" + camera.frameId() + "' is " +
+                     std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+                     " but its camera_info says " + std::to_string(camera.width()) + "x" +
+                     std::to_string(camera.height()));
+  }
+  if (image.channels() != 1 || (image.depth() != CV_8U && image.depth() != CV_16U)) {
+    throw InputError("edge map: image of view '" + camera.frameId() +
+                     "' must be 8- or 16-bit single-channel grey");
+  }
+  if (!(scale > 0.0 && scale <= 1.0)) throw InputError("edge map: scale must be in (0, 1]");
+  const cv::Rect full(0, 0, image.cols, image.rows);
+  roi_ = roi.area() > 0 ? (roi & full) : full;
+  if (roi_.area() == 0) roi_ = full;
+
+  cv::Mat region;
+  image(roi_).convertTo(region, CV_32F);
+  if (scale < 1.0) cv::resize(region, region, cv::Size(), scale, scale, cv::INTER_AREA);
+  camera_ = camera.cropped(roi_.x, roi_.y, roi_.width, roi_.height);
+  if (scale < 1.0) camera_ = camera_.scaled(scale);
+  // Scaling may round the size; keep the camera and the image consistent.
+  camera_ = geometry::XrayCamera(region.cols, region.rows, camera_.fx(), camera_.fy(), camera_.cx(),
+                                 camera_.cy(), camera_.frameId());
+  camera_.setWorldFromCamera(camera.worldFromCamera());
+
+  // Window to 8 bits between robust percentiles.
+  const float lo = percentile(region, s.window_low_percentile / 100.0);
+  float hi = percentile(region, s.window_high_percentile / 100.0);
+  if (hi <= lo) hi = lo + 1.0f;
+  region.convertTo(grey_, CV_8U, 255.0 / (hi - lo), -255.0 * lo / (hi - lo));
+  if (s.clahe) {
+    cv::createCLAHE(s.clahe_clip_limit, cv::Size(8, 8))->apply(grey_, grey_);
+  }
+  cv::Mat smooth = grey_;
+  if (s.blur_sigma_px > 0.0) cv::GaussianBlur(grey_, smooth, cv::Size(0, 0), s.blur_sigma_px);
+
+  double low = s.canny_low;
+  double high = s.canny_high;
+  if (high <= 0.0) {
+    cv::Mat gx;
+    cv::Mat gy;
+    cv::Mat magnitude;
+    cv::Sobel(smooth, gx, CV_32F, 1, 0);
+    cv::Sobel(smooth, gy, CV_32F, 0, 1);
+    cv::magnitude(gx, gy, magnitude);
+    high = std::max(10.0, s.auto_high_fraction * percentile(magnitude, 0.995));
+    low = s.auto_low_ratio * high;
+  } else if (low <= 0.0) {
+    low = s.auto_low_ratio * high;
+  }
+  cv::Canny(smooth, edges_, low, high, 3, true);
+
+  cv::Mat not_edges = edges_ == 0;
+  cv::distanceTransform(not_edges, distance_, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  cv::min(distance_, max_distance_, distance_);
+}
+
+bool EdgeMap::sample(double u, double v, double* distance, double* du, double* dv) const {
+  if (!(u >= 0.0 && v >= 0.0 && u <= distance_.cols - 1.0 && v <= distance_.rows - 1.0)) {
+    *distance = max_distance_;
+    *du = 0.0;
+    *dv = 0.0;
+    return false;
+  }
+  const int u0 = std::min(static_cast<int>(u), distance_.cols - 2);
+  const int v0 = std::min(static_cast<int>(v), distance_.rows - 2);
+  const double a = u - u0;
+  const double b = v - v0;
+  // Bilinear interpolation and its exact derivative, so that solver Jacobians are consistent
+  // with the values (a smoothed gradient underestimates the slope next to an edge, where the
+  // distance has its V-shaped minimum).
+  const float* r0 = distance_.ptr<float>(v0);
+  const float* r1 = distance_.ptr<float>(v0 + 1);
+  const double f00 = r0[u0];
+  const double f10 = r0[u0 + 1];
+  const double f01 = r1[u0];
+  const double f11 = r1[u0 + 1];
+  *distance = (1 - b) * ((1 - a) * f00 + a * f10) + b * ((1 - a) * f01 + a * f11);
+  *du = (1 - b) * (f10 - f00) + b * (f11 - f01);
+  *dv = (1 - a) * (f01 - f00) + a * (f11 - f10);
+  return true;
+}
+
+}  // namespace imaging
+}  // namespace fluoro_tracker
