@@ -1,0 +1,42 @@
+#pragma once
+
+#include <vector>
+
+#include <ceres/cost_function.h>
+#include <ceres/sized_cost_function.h>
+
+#include "fluoro_tracker/geometry/pose.h"
+#include "fluoro_tracker/imaging/edge_map.h"
+
+namespace fluoro_tracker {
+namespace registration {
+
+// The dissertation's contour metric as a Ceres residual block for one bone in one view: for each
+// projected outer-contour point, the distance (pixels) from its projection to the nearest image
+// edge, robustified per point with a Cauchy loss (so that contour points with no edge nearby,
+// e.g. behind an occluder, stop pulling) and weighted. One parameter block: the bone's pose
+// increment (see pose_increment.h). Analytic Jacobians.
+class ContourDistanceCost : public ceres::CostFunction {
+ public:
+  // `points_fixed`: contour points at the current pose T0, in the fixed frame. `centre`: the
+  // rotation centre of the increment. `edge_map` must outlive the cost.
+  ContourDistanceCost(const imaging::EdgeMap* edge_map, std::vector<Eigen::Vector3d> points_fixed,
+                      const Eigen::Vector3d& centre, double robust_scale_px, double weight);
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+  // Robustified residual sqrt(rho(d^2)) and its derivative with respect to d.
+  static double robustResidual(double distance, double scale, double* derivative);
+
+ private:
+  const imaging::EdgeMap* edge_map_;
+  std::vector<Eigen::Vector3d> points_;
+  Eigen::Vector3d centre_;
+  geometry::Pose camera_from_fixed_;
+  double robust_scale_;
+  double sqrt_weight_;
+};
+
+}  // namespace registration
+}  // namespace fluoro_tracker

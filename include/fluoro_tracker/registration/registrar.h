@@ -1,0 +1,78 @@
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "fluoro_tracker/geometry/pose.h"
+#include "fluoro_tracker/geometry/xray_camera.h"
+#include "fluoro_tracker/imaging/edge_map.h"
+#include "fluoro_tracker/imaging/silhouette.h"
+
+namespace fluoro_tracker {
+namespace registration {
+
+struct RegistrationSettings {
+  // Coarse-to-fine image scales. Full resolution alone measured best for starts within
+  // +-2 mm / 3 deg (benchmark); add coarser scales (e.g. 0.5) for cruder starts.
+  std::vector<double> scales = {1.0};
+  int outer_iterations = 4;         // silhouettes re-extracted at the new poses each time
+  int solver_iterations = 8;        // Levenberg-Marquardt iterations per outer iteration
+  double contour_spacing_px = 1.0;  // contour sample spacing at each scale
+  double robust_scale_px = 4.0;     // Cauchy scale, full-resolution pixels
+  double roi_margin_px = 60.0;      // edge maps cover the projected bones plus this margin
+  // Stop when no bone moves more than this between outer iterations.
+  double converged_translation_m = 2e-5;
+  double converged_rotation_rad = 2e-4;
+  imaging::EdgeMapSettings edges;
+
+  void validate() const;
+};
+
+// A frame as the registrar sees it: one image per view, each with its camera (whose
+// worldFromCamera() is the view's pose in the fixed frame).
+struct ViewImage {
+  cv::Mat image;
+  geometry::XrayCamera camera;
+};
+
+struct BoneModel {
+  std::string name;
+  std::shared_ptr<const imaging::SilhouetteModel> silhouette;
+  double image_weight = 1.0;
+};
+
+struct RegistrationResult {
+  std::vector<geometry::Pose> poses;  // per bone, in the fixed frame
+  double final_cost = 0.0;
+  int cost_evaluations = 0;
+  int solver_iterations = 0;
+  int outer_iterations = 0;
+  std::vector<int> contour_points;  // per bone, at the finest scale
+  // Per bone: a step would have carried it out of a view's field (behind the source or wholly
+  // outside the image); it was kept at its last valid pose and not moved further.
+  std::vector<bool> diverged;
+};
+
+// Registers all bones of one frame jointly, in any number of views, from starting poses: the
+// dissertation's contour-distance metric minimised with Ceres, coarse to fine.
+class Registrar {
+ public:
+  Registrar(std::vector<BoneModel> bones, RegistrationSettings settings);
+
+  const std::vector<BoneModel>& bones() const { return bones_; }
+  const RegistrationSettings& settings() const { return settings_; }
+
+  // Throws InputError for a wrong number of poses, no views, non-finite poses, or bad images.
+  RegistrationResult solve(const std::vector<ViewImage>& views,
+                           const std::vector<geometry::Pose>& initial_poses) const;
+
+ private:
+  std::vector<BoneModel> bones_;
+  RegistrationSettings settings_;
+};
+
+}  // namespace registration
+}  // namespace fluoro_tracker

@@ -1,0 +1,186 @@
+// The only translation unit that builds Ceres problems for image registration.
+#include "fluoro_tracker/registration/registrar.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include <ceres/ceres.h>
+
+#include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/registration/contour_distance_cost.h"
+#include "fluoro_tracker/registration/pose_increment.h"
+
+namespace fluoro_tracker {
+namespace registration {
+namespace {
+
+// Pixel rectangle of a view covering every bone's projected bounding box, plus a margin.
+cv::Rect regionOfInterest(const geometry::XrayCamera& camera, const std::vector<BoneModel>& bones,
+                          const std::vector<geometry::Pose>& poses, double margin) {
+  const geometry::Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  Eigen::AlignedBox2d box;
+  for (std::size_t b = 0; b < bones.size(); ++b) {
+    const Eigen::AlignedBox3d bounds = bones[b].silhouette->mesh().bounds();
+    for (int corner = 0; corner < 8; ++corner) {
+      const Eigen::Vector3d p = camera_from_fixed * poses[b] *
+                                bounds.corner(static_cast<Eigen::AlignedBox3d::CornerType>(corner));
+      Eigen::Vector2d px;
+      if (!camera.project(p, &px)) {
+        throw InputError("registration: bone '" + bones[b].name +
+                         "' lies behind the X-ray source of " + camera.frameId());
+      }
+      box.extend(px);
+    }
+  }
+  const int x0 = static_cast<int>(std::floor(box.min().x() - margin));
+  const int y0 = static_cast<int>(std::floor(box.min().y() - margin));
+  const int x1 = static_cast<int>(std::ceil(box.max().x() + margin));
+  const int y1 = static_cast<int>(std::ceil(box.max().y() + margin));
+  return cv::Rect(x0, y0, x1 - x0, y1 - y0) & cv::Rect(0, 0, camera.width(), camera.height());
+}
+
+// True if the bone's bounding box lies in front of every view's source and overlaps its image.
+bool isViewable(const BoneModel& bone, const geometry::Pose& pose,
+                const std::vector<ViewImage>& views) {
+  const Eigen::AlignedBox3d bounds = bone.silhouette->mesh().bounds();
+  for (const auto& view : views) {
+    const geometry::Pose camera_from_bone = view.camera.worldFromCamera().inverse() * pose;
+    Eigen::AlignedBox2d box;
+    for (int corner = 0; corner < 8; ++corner) {
+      const Eigen::Vector3d p =
+          camera_from_bone * bounds.corner(static_cast<Eigen::AlignedBox3d::CornerType>(corner));
+      Eigen::Vector2d px;
+      if (p.z() < 0.01 || !view.camera.project(p, &px)) return false;
+      box.extend(px);
+    }
+    const Eigen::AlignedBox2d image(Eigen::Vector2d(0.0, 0.0),
+                                    Eigen::Vector2d(view.camera.width(), view.camera.height()));
+    if (!box.intersects(image)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+void RegistrationSettings::validate() const {
+  if (scales.empty()) throw InputError("registration: scales must not be empty");
+  for (double s : scales) {
+    if (!(s > 0.0 && s <= 1.0)) throw InputError("registration: scales must be in (0, 1]");
+  }
+  if (outer_iterations < 1 || solver_iterations < 1) {
+    throw InputError("registration: outer_iterations and solver_iterations must be >= 1");
+  }
+  if (!(contour_spacing_px > 0.0) || !(robust_scale_px > 0.0)) {
+    throw InputError("registration: contour_spacing_px and robust_scale_px must be > 0");
+  }
+  edges.validate();
+}
+
+Registrar::Registrar(std::vector<BoneModel> bones, RegistrationSettings settings)
+    : bones_(std::move(bones)), settings_(std::move(settings)) {
+  settings_.validate();
+  for (const auto& bone : bones_) {
+    if (!bone.silhouette) throw InputError("registration: bone '" + bone.name + "' has no model");
+  }
+}
+
+RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
+                                    const std::vector<geometry::Pose>& initial_poses) const {
+  if (views.empty()) throw InputError("registration: no views");
+  if (initial_poses.size() != bones_.size()) {
+    throw InputError("registration: " + std::to_string(initial_poses.size()) + " pose(s) for " +
+                     std::to_string(bones_.size()) + " bone(s)");
+  }
+  for (std::size_t b = 0; b < bones_.size(); ++b) {
+    if (!geometry::isValidPose(initial_poses[b])) {
+      throw InputError("registration: the starting pose of bone '" + bones_[b].name +
+                       "' is not a finite rigid transform");
+    }
+  }
+
+  RegistrationResult result;
+  result.poses = initial_poses;
+  result.contour_points.assign(bones_.size(), 0);
+  result.diverged.assign(bones_.size(), false);
+  std::vector<cv::Rect> rois;
+  for (const auto& view : views) {
+    rois.push_back(regionOfInterest(view.camera, bones_, initial_poses, settings_.roi_margin_px));
+  }
+
+  for (double scale : settings_.scales) {
+    std::vector<imaging::EdgeMap> maps;
+    maps.reserve(views.size());
+    for (std::size_t v = 0; v < views.size(); ++v) {
+      maps.emplace_back(views[v].image, views[v].camera, settings_.edges, rois[v], scale);
+    }
+    const double robust_scale = settings_.robust_scale_px * scale;
+
+    for (int outer = 0; outer < settings_.outer_iterations; ++outer) {
+      ++result.outer_iterations;
+      std::vector<std::array<double, 6>> increments(bones_.size(), std::array<double, 6>{});
+      std::vector<Eigen::Vector3d> centres(bones_.size());
+      ceres::Problem::Options problem_options;
+      problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+      ceres::Problem problem(problem_options);
+      for (std::size_t b = 0; b < bones_.size(); ++b) {
+        if (result.diverged[b]) continue;
+        const geometry::Pose& pose = result.poses[b];
+        centres[b] = pose * bones_[b].silhouette->mesh().volumeCentroid();
+        int points_in_views = 0;
+        for (std::size_t v = 0; v < views.size(); ++v) {
+          const geometry::XrayCamera& camera = maps[v].camera();
+          const geometry::Pose camera_from_fixed = camera.worldFromCamera().inverse();
+          const auto contour = bones_[b].silhouette->contour(camera, camera_from_fixed * pose,
+                                                             settings_.contour_spacing_px);
+          if (contour.empty()) continue;
+          std::vector<Eigen::Vector3d> points;
+          points.reserve(contour.size());
+          for (const auto& c : contour) points.push_back(pose * c.model_point);
+          points_in_views += static_cast<int>(points.size());
+          problem.AddResidualBlock(new ContourDistanceCost(&maps[v], std::move(points), centres[b],
+                                                           robust_scale, bones_[b].image_weight),
+                                   nullptr, increments[b].data());
+        }
+        result.contour_points[b] = points_in_views;
+      }
+      if (problem.NumResidualBlocks() == 0) break;
+
+      ceres::Solver::Options options;
+      options.minimizer_type = ceres::TRUST_REGION;
+      options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+      options.linear_solver_type = ceres::DENSE_QR;
+      options.max_num_iterations = settings_.solver_iterations;
+      options.num_threads = 1;
+      options.logging_type = ceres::SILENT;
+      ceres::Solver::Summary summary;
+      ceres::Solve(options, &problem, &summary);
+      result.cost_evaluations += summary.num_residual_evaluations;
+      result.solver_iterations += static_cast<int>(summary.iterations.size());
+      result.final_cost = summary.final_cost;
+
+      double max_translation = 0.0;
+      double max_rotation = 0.0;
+      for (std::size_t b = 0; b < bones_.size(); ++b) {
+        if (!problem.HasParameterBlock(increments[b].data())) continue;
+        const auto& inc = increments[b];
+        const geometry::Pose moved = applyIncrement(result.poses[b], centres[b], inc.data());
+        if (!isViewable(bones_[b], moved, views)) {
+          result.diverged[b] = true;
+          continue;
+        }
+        result.poses[b] = moved;
+        max_rotation = std::max(max_rotation, Eigen::Vector3d(inc[0], inc[1], inc[2]).norm());
+        max_translation = std::max(max_translation, Eigen::Vector3d(inc[3], inc[4], inc[5]).norm());
+      }
+      if (max_translation < settings_.converged_translation_m &&
+          max_rotation < settings_.converged_rotation_rad) {
+        break;
+      }
+    }
+  }
+  return result;
+}
+
+}  // namespace registration
+}  // namespace fluoro_tracker

@@ -1,0 +1,308 @@
+// benchmark: the dissertation's evaluation protocol (chapter 3) for the registration core.
+//
+// Simulated: trials of a total knee are simulated; every frame is registered on its own from the
+// true poses perturbed uniformly by +-2 mm in-plane, +-3 mm out-of-plane and +-3 deg about each
+// bone axis. A frame fails if any bone is off by more than 1 mm in-plane, 2 deg about X or Z, or
+// 3 deg about Y. Prints success rate, RMS error per degree of freedom over successful frames,
+// time per frame and cost evaluations per frame.
+//
+// Real: the three JointTrack Kneel frames with their reference poses, registered from
+// perturbed references; prints the distance to the reference.
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <random>
+
+#include <boost/program_options.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/io/jointtrack_calibration.h"
+#include "fluoro_tracker/io/jts_file.h"
+#include "fluoro_tracker/registration/registrar.h"
+#include "fluoro_tracker/sim/trial_simulator.h"
+
+namespace po = boost::program_options;
+using namespace fluoro_tracker;
+using geometry::Pose;
+
+namespace {
+
+struct PoseError {
+  Eigen::Vector3d translation_mm;  // x, y in-plane, z along the beam (view 1's optical frame)
+  Eigen::Vector3d rotation_deg;    // about the bone's X, Y, Z axes
+};
+
+PoseError poseError(const Pose& estimate, const Pose& truth, const Pose& camera_from_fixed) {
+  PoseError e;
+  e.translation_mm =
+      1e3 * camera_from_fixed.linear() * (estimate.translation() - truth.translation());
+  const Eigen::AngleAxisd delta(truth.linear().transpose() * estimate.linear());
+  e.rotation_deg = geometry::radToDeg(delta.angle()) * delta.axis();
+  return e;
+}
+
+bool withinCriteria(const PoseError& e) {
+  return std::abs(e.translation_mm.x()) <= 1.0 && std::abs(e.translation_mm.y()) <= 1.0 &&
+         std::abs(e.rotation_deg.x()) <= 2.0 && std::abs(e.rotation_deg.z()) <= 2.0 &&
+         std::abs(e.rotation_deg.y()) <= 3.0;
+}
+
+Pose perturb(const Pose& truth, const Pose& camera_from_fixed, std::mt19937_64* rng,
+             double in_plane_mm, double out_of_plane_mm, double rotation_deg) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const Eigen::Vector3d shift_camera(in_plane_mm * unit(*rng), in_plane_mm * unit(*rng),
+                                     out_of_plane_mm * unit(*rng));
+  Pose p = truth;
+  p.translation() += camera_from_fixed.linear().transpose() * (1e-3 * shift_camera);
+  p.linear() = truth.linear() * geometry::rotationX(geometry::degToRad(rotation_deg * unit(*rng))) *
+               geometry::rotationY(geometry::degToRad(rotation_deg * unit(*rng))) *
+               geometry::rotationZ(geometry::degToRad(rotation_deg * unit(*rng)));
+  return p;
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[static_cast<std::size_t>(q * (v.size() - 1) + 0.5)];
+}
+
+struct Tally {
+  int frames = 0;
+  int successes = 0;
+  std::vector<double> milliseconds;
+  std::vector<double> evaluations;
+  Eigen::Matrix<double, 6, 1> sum_squares = Eigen::Matrix<double, 6, 1>::Zero();
+  Eigen::Matrix<double, 6, 1> sum = Eigen::Matrix<double, 6, 1>::Zero();
+  int samples = 0;  // bone-frames in successful frames
+  // Failures per bone and criterion: in-plane translation, rotation about X, Y, Z.
+  std::vector<std::array<int, 4>> failures;
+
+  void add(const std::vector<PoseError>& errors, double ms, int cost_evaluations) {
+    ++frames;
+    milliseconds.push_back(ms);
+    evaluations.push_back(cost_evaluations);
+    failures.resize(errors.size(), std::array<int, 4>{});
+    for (std::size_t b = 0; b < errors.size(); ++b) {
+      const PoseError& e = errors[b];
+      if (std::abs(e.translation_mm.x()) > 1.0 || std::abs(e.translation_mm.y()) > 1.0)
+        ++failures[b][0];
+      if (std::abs(e.rotation_deg.x()) > 2.0) ++failures[b][1];
+      if (std::abs(e.rotation_deg.y()) > 3.0) ++failures[b][2];
+      if (std::abs(e.rotation_deg.z()) > 2.0) ++failures[b][3];
+    }
+    const bool ok = std::all_of(errors.begin(), errors.end(), withinCriteria);
+    if (!ok) return;
+    ++successes;
+    for (const auto& e : errors) {
+      Eigen::Matrix<double, 6, 1> v;
+      v << e.translation_mm, e.rotation_deg;
+      sum_squares += v.cwiseProduct(v);
+      sum += v;
+      ++samples;
+    }
+  }
+
+  void print(const std::string& title) const {
+    std::cout << title << "\n  frames " << frames << ", success " << std::fixed
+              << std::setprecision(1) << 100.0 * successes / std::max(frames, 1) << " %\n";
+    if (samples > 0) {
+      const Eigen::Matrix<double, 6, 1> rms = (sum_squares / samples).cwiseSqrt();
+      std::cout << std::setprecision(2) << "  RMS (successful frames, both bones): tx " << rms[0]
+                << " mm, ty " << rms[1] << " mm, tz " << rms[2] << " mm, rx " << rms[3]
+                << " deg, ry " << rms[4] << " deg, rz " << rms[5] << " deg\n";
+      const Eigen::Matrix<double, 6, 1> mean = sum / samples;
+      std::cout << "  mean error: tx " << mean[0] << " mm, ty " << mean[1] << " mm, tz " << mean[2]
+                << " mm, rx " << mean[3] << " deg, ry " << mean[4] << " deg, rz " << mean[5]
+                << " deg\n";
+    }
+    for (std::size_t b = 0; b < failures.size(); ++b) {
+      std::cout << "  bone " << b << " out of bounds in frames: in-plane " << failures[b][0]
+                << ", rx " << failures[b][1] << ", ry " << failures[b][2] << ", rz "
+                << failures[b][3] << "\n";
+    }
+    std::cout << std::setprecision(1) << "  time per frame: median "
+              << percentile(milliseconds, 0.5) << " ms, p95 " << percentile(milliseconds, 0.95)
+              << " ms; cost evaluations per frame: median " << percentile(evaluations, 0.5) << "\n";
+  }
+};
+
+std::vector<registration::BoneModel> boneModels(const std::vector<const geometry::Mesh*>& meshes,
+                                                const std::vector<std::string>& names) {
+  std::vector<registration::BoneModel> bones;
+  for (std::size_t i = 0; i < meshes.size(); ++i) {
+    bones.push_back({names[i], std::make_shared<imaging::SilhouetteModel>(*meshes[i]), 1.0});
+  }
+  return bones;
+}
+
+struct Perturbation {
+  double in_plane_mm = 2.0;
+  double out_of_plane_mm = 3.0;
+  double rotation_deg = 3.0;
+};
+
+void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool ideal_images,
+                  const Perturbation& perturbation,
+                  const registration::RegistrationSettings& settings) {
+  Tally tally;
+  std::mt19937_64 rng(seed);
+  for (int trial = 0; trial < trials; ++trial) {
+    sim::TrialSimulatorSettings s;
+    s.views = views;
+    s.motion.frames = frames;
+    s.seed = seed + trial;
+    // Vary the trials: flexion range, view obliquity, polarity.
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    s.motion.max_flexion_deg = 60.0 + 60.0 * unit(rng);
+    s.view_yaw_deg = -8.0 + 16.0 * unit(rng);
+    s.view_roll_deg = -5.0 + 10.0 * unit(rng);
+    s.detector.implants_bright = trial % 2 == 1;
+    if (ideal_images) {
+      s.anatomy = false;
+      s.detector.photons_per_pixel = 0.0;
+    }
+    const sim::TrialSimulator simulator(s);
+    const auto& implants = simulator.implants();
+    const registration::Registrar registrar(
+        boneModels({&implants.femoral_component, &implants.tibial_tray}, {"femur", "tibia"}),
+        settings);
+    std::vector<registration::ViewImage> view_images;
+    for (const auto& v : simulator.views()) view_images.push_back({cv::Mat(), v.camera});
+    const Pose camera_from_fixed = simulator.views()[0].camera.worldFromCamera().inverse();
+    for (int f = 0; f < frames; ++f) {
+      const sim::SimulatedFrame frame = simulator.render(f, &rng);
+      for (std::size_t v = 0; v < view_images.size(); ++v) view_images[v].image = frame.images[v];
+      const std::vector<Pose> truth = {frame.femur, frame.tibia};
+      std::vector<Pose> start;
+      for (const Pose& t : truth) {
+        start.push_back(perturb(t, camera_from_fixed, &rng, perturbation.in_plane_mm,
+                                perturbation.out_of_plane_mm, perturbation.rotation_deg));
+      }
+      const auto t0 = std::chrono::steady_clock::now();
+      const auto result = registrar.solve(view_images, start);
+      const double ms =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      std::vector<PoseError> errors;
+      for (std::size_t b = 0; b < truth.size(); ++b) {
+        errors.push_back(poseError(result.poses[b], truth[b], camera_from_fixed));
+      }
+      tally.add(errors, ms, result.cost_evaluations);
+    }
+  }
+  tally.print("simulated " + std::string(views == 1 ? "single-plane" : "bi-plane") +
+              " total knee, " + std::to_string(trials) + " trial(s) x " + std::to_string(frames) +
+              " frame(s), 1024x1024, image terms only, start +-2 mm in-plane, +-3 mm out-of-plane, "
+              "+-3 deg:");
+}
+
+void runKneel(const std::string& dir, int starts, std::uint64_t seed,
+              const registration::RegistrationSettings& settings) {
+  const auto calibration = io::readJointTrackCalibration(dir + "/calibration.txt");
+  const geometry::Mesh femur = geometry::Mesh::load(dir + "/KR_right_7_fem.stl");
+  const geometry::Mesh tibia = geometry::Mesh::load(dir + "/KR_right_6_tib.stl");
+  const auto femur_poses = io::readJtsFile(dir + "/fem.jts");
+  const auto tibia_poses = io::readJtsFile(dir + "/tib.jts");
+  const registration::Registrar registrar(boneModels({&femur, &tibia}, {"femur", "tibia"}),
+                                          settings);
+  const std::vector<std::string> frames = {"0160", "0170", "0180"};
+  std::mt19937_64 rng(seed);
+  std::cout << "real JointTrack Kneel frames, " << starts
+            << " perturbed start(s) per frame (+-2 mm in-plane, +-3 mm out-of-plane, +-3 deg):\n";
+  int within = 0;
+  int total = 0;
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    const cv::Mat image = cv::imread(dir + "/AT_K1_V1_" + frames[f] + ".tif", cv::IMREAD_UNCHANGED);
+    if (image.empty()) throw InputError("cannot read Kneel frame " + frames[f]);
+    const geometry::XrayCamera camera =
+        io::cameraFromJointTrack(calibration, image.cols, image.rows);
+    const std::vector<Pose> reference = {io::opticalFromJointTrack(*femur_poses[f]),
+                                         io::opticalFromJointTrack(*tibia_poses[f])};
+    for (int s = 0; s < starts; ++s) {
+      std::vector<Pose> start;
+      for (const Pose& r : reference)
+        start.push_back(perturb(r, Pose::Identity(), &rng, 2.0, 3.0, 3.0));
+      const auto result = registrar.solve({{image, camera}}, start);
+      std::cout << "  frame " << frames[f] << " start " << s << ":";
+      bool ok = true;
+      for (std::size_t b = 0; b < 2; ++b) {
+        const PoseError e = poseError(result.poses[b], reference[b], Pose::Identity());
+        const double in_plane = std::hypot(e.translation_mm.x(), e.translation_mm.y());
+        std::cout << std::fixed << std::setprecision(2) << (b == 0 ? " femur" : "  tibia")
+                  << " in-plane " << in_plane << " mm, out-of-plane " << e.translation_mm.z()
+                  << " mm, rotation " << e.rotation_deg.norm() << " deg;";
+        ok = ok && in_plane <= 1.0 && e.rotation_deg.norm() <= 2.0;
+      }
+      std::cout << "\n";
+      within += ok ? 1 : 0;
+      ++total;
+    }
+  }
+  std::cout << "  within 1 mm in-plane and 2 deg of the reference: " << within << "/" << total
+            << "\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  po::options_description options("benchmark: registration accuracy and speed\n\nOptions");
+  int trials = 4;
+  int frames = 25;
+  int views = 1;
+  int kneel_starts = 5;
+  std::uint64_t seed = 7;
+  std::string kneel_dir;
+  Perturbation perturbation;
+  registration::RegistrationSettings settings;
+  std::vector<double> scales;
+  options.add_options()("help,h", "show this help")(
+      "trials", po::value(&trials)->default_value(trials), "simulated trials")(
+      "frames", po::value(&frames)->default_value(frames), "frames per trial")(
+      "views", po::value(&views)->default_value(views), "1 (single plane) or 2 (bi-plane)")(
+      "seed", po::value(&seed)->default_value(seed), "random seed")(
+      "kneel", po::value(&kneel_dir),
+      "JointTrack Kneel folder (e.g. ../shared/data/jointtrack_kneel)")(
+      "kneel-starts", po::value(&kneel_starts)->default_value(kneel_starts),
+      "perturbed starts per Kneel frame")("skip-simulated", "only run the real-image check")(
+      "in-plane-mm", po::value(&perturbation.in_plane_mm)->default_value(2.0),
+      "start perturbation")("out-of-plane-mm",
+                            po::value(&perturbation.out_of_plane_mm)->default_value(3.0),
+                            "start perturbation")(
+      "rotation-deg", po::value(&perturbation.rotation_deg)->default_value(3.0),
+      "start perturbation")("scales", po::value(&scales)->multitoken(),
+                            "coarse-to-fine image scales, e.g. 0.5 1 (default 1)")(
+      "outer-iterations",
+      po::value(&settings.outer_iterations)->default_value(settings.outer_iterations),
+      "silhouette re-extractions per scale")(
+      "solver-iterations",
+      po::value(&settings.solver_iterations)->default_value(settings.solver_iterations),
+      "Levenberg-Marquardt iterations per outer iteration")(
+      "robust-px", po::value(&settings.robust_scale_px)->default_value(settings.robust_scale_px),
+      "Cauchy scale of the contour distance, full-resolution pixels")(
+      "ideal", "simulate without anatomy and noise (isolates the method from image clutter)");
+  po::variables_map vm;
+  try {
+    po::store(po::parse_command_line(argc, argv, options), vm);
+    po::notify(vm);
+  } catch (const po::error& e) {
+    std::cerr << "benchmark: " << e.what() << "\n" << options << "\n";
+    return 2;
+  }
+  if (vm.count("help")) {
+    std::cout << options << "\n";
+    return 0;
+  }
+  try {
+    if (!scales.empty()) settings.scales = scales;
+    if (!vm.count("skip-simulated"))
+      runSimulated(trials, frames, views, seed, vm.count("ideal") > 0, perturbation, settings);
+    if (!kneel_dir.empty()) runKneel(kneel_dir, kneel_starts, seed, settings);
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "benchmark: error: " << e.what() << "\n";
+    return 1;
+  }
+}
