@@ -36,7 +36,8 @@ cv::Mat formRadiograph(const cv::Mat& line_integral, const DetectorSettings& s,
   // Single precision from here on: the display has at most 16 bits.
   cv::Mat attenuation;
   line_integral.convertTo(attenuation, CV_32F);
-  cv::Mat open_field;  // 255 where the collimator lets the beam through
+  cv::max(attenuation, 0.0, attenuation);  // physically >= 0; drops round-off below zero
+  cv::Mat open_field;                      // 255 where the collimator lets the beam through
   if (s.collimator_radius_fraction > 0.0) {
     open_field = cv::Mat::zeros(rows, cols, CV_8U);
     const double radius = s.collimator_radius_fraction * 0.5 * std::min(rows, cols);

@@ -10,12 +10,18 @@ namespace fluoro_tracker {
 namespace imaging {
 namespace {
 
-constexpr int kSubpixelBits = 8;
+// Fixed point with 1/512-pixel units: vertices are snapped to even units (a 1/256-pixel grid)
+// and every pixel is sampled at odd units, (u + 1/512, v + 1/512), so a projected vertex never
+// coincides with a sample point. Where a fan of triangles folds over itself in projection
+// (a surface seen edge-on), ownership of a sample exactly on a shared vertex could not be made
+// consistent, and an entry would be counted without its exit.
+constexpr int kSubpixelBits = 9;
 constexpr std::int64_t kSubpixel = 1 << kSubpixelBits;
 // Vertices closer than this to the source plane have no usable projection.
 constexpr double kMinDepthM = 1e-3;
+constexpr double kSampleOffset = Renderer::kSampleOffsetPx;
 // Keeps the fixed-point edge functions inside 64 bits.
-constexpr double kMaxPixelCoordinate = 4e6;
+constexpr double kMaxPixelCoordinate = 2e6;
 
 struct FixedPoint {
   std::int64_t x;
@@ -34,9 +40,10 @@ bool ownsEdge(const FixedPoint& a, const FixedPoint& b) {
 
 }  // namespace
 
-void Renderer::accumulate(const geometry::XrayCamera& camera, const geometry::Mesh& mesh,
-                          const geometry::Pose& camera_from_mesh, double weight,
-                          cv::Mat* accumulator) {
+cv::Rect Renderer::accumulate(const geometry::XrayCamera& camera, const geometry::Mesh& mesh,
+                              const geometry::Pose& camera_from_mesh, double weight,
+                              cv::Mat* accumulator) {
+  cv::Rect touched;
   CV_Assert(accumulator->type() == CV_64F && accumulator->rows == camera.height() &&
             accumulator->cols == camera.width());
   const auto& vertices = mesh.vertices();
@@ -55,7 +62,7 @@ void Renderer::accumulate(const geometry::XrayCamera& camera, const geometry::Me
                        " pixels from the image origin in " + camera.frameId() +
                        " (mesh too close to the source?)");
     }
-    pixels[i] = {std::llround(u * kSubpixel), std::llround(v * kSubpixel)};
+    pixels[i] = {2 * std::llround(u * (kSubpixel / 2)), 2 * std::llround(v * (kSubpixel / 2))};
   }
 
   const int width = camera.width();
@@ -76,18 +83,26 @@ void Renderer::accumulate(const geometry::XrayCamera& camera, const geometry::Me
     const std::int64_t max_x = std::max({a.x, b.x, c.x});
     const std::int64_t min_y = std::min({a.y, b.y, c.y});
     const std::int64_t max_y = std::max({a.y, b.y, c.y});
-    const int u0 = std::max<std::int64_t>(0, (min_x + kSubpixel - 1) >> kSubpixelBits);
-    const int u1 = std::min<std::int64_t>(width - 1, max_x >> kSubpixelBits);
-    const int v0 = std::max<std::int64_t>(0, (min_y + kSubpixel - 1) >> kSubpixelBits);
-    const int v1 = std::min<std::int64_t>(height - 1, max_y >> kSubpixelBits);
+    // Pixels whose sample point (u * kSubpixel + 1) lies within the box.
+    const int u0 = std::max<std::int64_t>(0, (min_x - 1 + kSubpixel - 1) >> kSubpixelBits);
+    const int u1 = std::min<std::int64_t>(width - 1, (max_x - 1) >> kSubpixelBits);
+    const int v0 = std::max<std::int64_t>(0, (min_y - 1 + kSubpixel - 1) >> kSubpixelBits);
+    const int v1 = std::min<std::int64_t>(height - 1, (max_y - 1) >> kSubpixelBits);
     if (u0 > u1 || v0 > v1) continue;
+    touched |= cv::Rect(u0, v0, u1 - u0 + 1, v1 - v0 + 1);
 
     // Plane of the triangle in the optical frame: n·p = n·p0. Along the ray r = (x, y, 1) with
-    // x = (u - cx)/fx, y = (v - cy)/fy the plane is met at parameter s = n·p0 / n·r, and the
-    // signed contribution (+ leaving, − entering) is n·p0 / |n·r|.
+    // x = (u - cx)/fx, y = (v - cy)/fy the plane is met at parameter s = n·p0 / n·r (the hit's
+    // depth z), and the signed contribution is +s where the ray leaves (n·r > 0), −s where it
+    // enters.
     const Eigen::Vector3d& p0 = points[t[0]];
     const Eigen::Vector3d n = (points[t[1]] - p0).cross(points[t[2]] - p0);
-    const double numerator = weight * n.dot(p0);
+    const double plane_offset = n.dot(p0);
+    // The ray meets a covered triangle inside it, so the hit depth lies within the triangle's
+    // depth range. Clamping to it is exact for genuine hits and keeps a triangle seen almost
+    // exactly edge-on (n·r ~ 0 after vertex snapping) from adding an unbounded value.
+    const double z_min = std::min({p0.z(), points[t[1]].z(), points[t[2]].z()});
+    const double z_max = std::max({p0.z(), points[t[1]].z(), points[t[2]].z()});
     const double du = n.x() * inv_fx;  // d(n·r)/du
     const double dv = n.y() * inv_fy;  // d(n·r)/dv
     const double c0 = n.z() - n.x() * camera.cx() * inv_fx - n.y() * camera.cy() * inv_fy;
@@ -97,8 +112,8 @@ void Renderer::accumulate(const geometry::XrayCamera& camera, const geometry::Me
     std::int64_t row_value[3];
     std::int64_t step_u[3];
     std::int64_t step_v[3];
-    const std::int64_t px = static_cast<std::int64_t>(u0) << kSubpixelBits;
-    const std::int64_t py = static_cast<std::int64_t>(v0) << kSubpixelBits;
+    const std::int64_t px = (static_cast<std::int64_t>(u0) << kSubpixelBits) + 1;
+    const std::int64_t py = (static_cast<std::int64_t>(v0) << kSubpixelBits) + 1;
     for (int e = 0; e < 3; ++e) {
       const FixedPoint& ea = edges[e][0];
       const FixedPoint& eb = edges[e][1];
@@ -129,46 +144,70 @@ void Renderer::accumulate(const geometry::XrayCamera& camera, const geometry::Me
         }
       }
       double* row = accumulator->ptr<double>(v);
-      const double row_denominator = dv * v + c0;
+      const double row_denominator = dv * (v + kSampleOffset) + c0;
       for (std::int64_t k = k_min; k <= k_max; ++k) {
         const int u = u0 + static_cast<int>(k);
-        row[u] += numerator / std::abs(du * u + row_denominator);
+        const double n_dot_r = du * (u + kSampleOffset) + row_denominator;
+        const double depth = std::clamp(plane_offset / n_dot_r, z_min, z_max);
+        row[u] += n_dot_r > 0.0 ? weight * depth : -weight * depth;
       }
       for (int e = 0; e < 3; ++e) row_value[e] += step_v[e];
     }
   }
+  return touched;
 }
 
-void Renderer::finishRayLengths(const geometry::XrayCamera& camera, cv::Mat* accumulator) {
-  for (int v = 0; v < accumulator->rows; ++v) {
+void Renderer::finishRayLengths(const geometry::XrayCamera& camera, cv::Mat* accumulator,
+                                cv::Rect region) {
+  if (region.area() == 0) region = cv::Rect(0, 0, accumulator->cols, accumulator->rows);
+  for (int v = region.y; v < region.y + region.height; ++v) {
     double* row = accumulator->ptr<double>(v);
-    const double y = (v - camera.cy()) / camera.fy();
-    for (int u = 0; u < accumulator->cols; ++u) {
+    const double y = (v + kSampleOffset - camera.cy()) / camera.fy();
+    for (int u = region.x; u < region.x + region.width; ++u) {
       if (row[u] == 0.0) continue;
-      const double x = (u - camera.cx()) / camera.fx();
+      const double x = (u + kSampleOffset - camera.cx()) / camera.fx();
       row[u] *= std::sqrt(x * x + y * y + 1.0);
     }
   }
 }
 
+namespace {
+
+// Renders one mesh's path lengths into `scratch` (zero on entry), clamps them to the physically
+// possible range, adds weight × length to `accumulator` and zeroes `scratch` again.
+void addMeshPathLength(const geometry::XrayCamera& camera, const geometry::Mesh& mesh,
+                       const geometry::Pose& camera_from_mesh, double weight, cv::Mat* scratch,
+                       cv::Mat* accumulator) {
+  const cv::Rect region = Renderer::accumulate(camera, mesh, camera_from_mesh, 1.0, scratch);
+  if (region.area() == 0) return;
+  Renderer::finishRayLengths(camera, scratch, region);
+  cv::Mat lengths = (*scratch)(region);
+  const double longest = mesh.bounds().sizes().norm();
+  cv::min(cv::max(lengths, 0.0), longest, lengths);
+  cv::scaleAdd(lengths, weight, (*accumulator)(region), (*accumulator)(region));
+  lengths.setTo(0.0);
+}
+
+}  // namespace
+
 cv::Mat Renderer::pathLength(const geometry::XrayCamera& camera, const geometry::Mesh& mesh,
                              const geometry::Pose& camera_from_mesh) {
   cv::Mat result = cv::Mat::zeros(camera.height(), camera.width(), CV_64F);
-  accumulate(camera, mesh, camera_from_mesh, 1.0, &result);
-  finishRayLengths(camera, &result);
+  cv::Mat scratch = cv::Mat::zeros(camera.height(), camera.width(), CV_64F);
+  addMeshPathLength(camera, mesh, camera_from_mesh, 1.0, &scratch, &result);
   return result;
 }
 
 cv::Mat Renderer::lineIntegral(const geometry::XrayCamera& camera,
                                const std::vector<RenderObject>& objects) {
   cv::Mat result = cv::Mat::zeros(camera.height(), camera.width(), CV_64F);
+  cv::Mat scratch = cv::Mat::zeros(camera.height(), camera.width(), CV_64F);
   for (const auto& object : objects) {
     if (object.mesh == nullptr || object.mesh->empty()) continue;
     // Attenuation per mm times path length in m.
-    accumulate(camera, *object.mesh, object.camera_from_mesh, 1e3 * object.attenuation_per_mm,
-               &result);
+    addMeshPathLength(camera, *object.mesh, object.camera_from_mesh,
+                      1e3 * object.attenuation_per_mm, &scratch, &result);
   }
-  finishRayLengths(camera, &result);
   return result;
 }
 

@@ -46,7 +46,8 @@ TEST(Renderer, PathLengthThroughASphereMatchesTheChord) {
   double worst = 0.0;
   for (int v = 0; v < kCamera.height(); ++v) {
     for (int u = 0; u < kCamera.width(); ++u) {
-      const Eigen::Vector3d d = kCamera.backProject(Eigen::Vector2d(u, v));
+      const Eigen::Vector3d d = kCamera.backProject(
+          Eigen::Vector2d(u + Renderer::kSampleOffsetPx, v + Renderer::kSampleOffsetPx));
       const double distance = (centre - centre.dot(d) * d).norm();
       const double rendered = length.at<double>(v, u);
       if (distance > radius * 1.001) {
@@ -73,7 +74,10 @@ TEST(Renderer, PathLengthThroughARotatedBoxIsExact) {
   double covered = 0.0;
   for (int v = 0; v < kCamera.height(); ++v) {
     for (int u = 0; u < kCamera.width(); ++u) {
-      const double exact = boxChord(kCamera.backProject(Eigen::Vector2d(u, v)), pose, half);
+      const double exact =
+          boxChord(kCamera.backProject(Eigen::Vector2d(u + Renderer::kSampleOffsetPx,
+                                                       v + Renderer::kSampleOffsetPx)),
+                   pose, half);
       worst = std::max(worst, std::abs(length.at<double>(v, u) - exact));
       if (exact > 0.0) ++covered;
     }
@@ -84,13 +88,13 @@ TEST(Renderer, PathLengthThroughARotatedBoxIsExact) {
 }
 
 TEST(Renderer, EdgesSharedByTrianglesAreCountedOnce) {
-  // A box whose projected edges pass exactly through pixel centres: a double-counted or
-  // missed edge would show as a line of wrong lengths.
+  // A box whose front face's diagonal passes exactly through the pixels' sample points
+  // (u + d, u + d): a double-counted or missed shared edge would show as a line of wrong
+  // lengths.
   const double depth = 1.0;
   const double half_px = 20.0;
   const double half = half_px * depth / kCamera.fx();
-  // Front face at z = depth with its corners on pixel centres (128 +- 20): the face's outline
-  // and its diagonal run through pixel centres.
+  // Front face at z = depth with its corners on pixel centres (128 +- 20).
   const Eigen::Vector3d centre(0.5 * depth / kCamera.fx(), 0.5 * depth / kCamera.fy(),
                                depth + 0.01);
   const Eigen::Vector3d h(half, half, 0.01);
@@ -98,7 +102,10 @@ TEST(Renderer, EdgesSharedByTrianglesAreCountedOnce) {
   const cv::Mat length = Renderer::pathLength(kCamera, sim::box(h), pose);
   for (int v = 100; v < 156; ++v) {
     for (int u = 100; u < 156; ++u) {
-      const double exact = boxChord(kCamera.backProject(Eigen::Vector2d(u, v)), pose, h);
+      const double exact =
+          boxChord(kCamera.backProject(Eigen::Vector2d(u + Renderer::kSampleOffsetPx,
+                                                       v + Renderer::kSampleOffsetPx)),
+                   pose, h);
       EXPECT_NEAR(length.at<double>(v, u), exact, 1e-9) << u << "," << v;
     }
   }
