@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs dependencies, builds, and runs the demo: simulates a single-plane total-knee trial
-# (femoral and tibial components moving through a flexion cycle, femur resting on the insert)
-# and shows where the bag, ground truth and preview went.
+# (femoral and tibial components moving through a flexion cycle, femur resting on the insert),
+# tracks it with track_bag from the first frame's pose, and prints the accuracy against the
+# ground truth; writes contour overlays.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export PATH="/usr/bin:$PATH"
@@ -13,8 +14,13 @@ set +u
 source build/devel/setup.bash
 set -u
 out="${DEMO_OUTPUT:-demo_output}"
-build/devel/lib/fluoro_tracker/simulate_trial --config config/simulate_knee.yaml --output "$out"
+tools=build/devel/lib/fluoro_tracker
+"$tools/simulate_trial" --config config/simulate_knee.yaml --output "$out"
 echo
-echo "demo: open $out/preview.png (first frame, deepest flexion, last frame)."
+"$tools/track_bag" --config "$out/trial.yaml" --bag "$out/trial.bag" --poses-csv "$out/poses.csv" \
+  --truth-csv "$out/ground_truth.csv" --overlay-dir "$out/overlay"
+echo
+echo "demo: tracked poses in $out/poses.csv; contour overlays in $out/overlay/ (e.g. overlay_0030.png,"
+echo "      deepest flexion); simulated frames in $out/preview.png."
 echo "demo: inspect the bag with 'rosbag info $out/trial.bag', or replay it on a master with"
 echo "      'roslaunch fluoro_tracker play_trial.launch bag:=\$PWD/$out/trial.bag'."

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/SVD>
+
 namespace fluoro_tracker {
 namespace geometry {
 
@@ -15,6 +17,15 @@ Pose makePose(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translatio
 
 Pose makePose(const Eigen::Quaterniond& rotation, const Eigen::Vector3d& translation) {
   return makePose(rotation.normalized().toRotationMatrix(), translation);
+}
+
+Pose normalized(const Pose& pose) {
+  // The nearest rotation (Frobenius norm): U·V^T of the SVD, with the sign fixed for det = +1.
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(pose.linear(),
+                                              Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d u = svd.matrixU();
+  if ((u * svd.matrixV().transpose()).determinant() < 0.0) u.col(2) *= -1.0;
+  return makePose(Eigen::Matrix3d(u * svd.matrixV().transpose()), pose.translation());
 }
 
 bool isValidPose(const Pose& pose, double tolerance) {

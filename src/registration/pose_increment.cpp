@@ -15,7 +15,7 @@ geometry::Pose applyIncrement(const geometry::Pose& pose, const Eigen::Vector3d&
   geometry::Pose out = pose;
   out.linear() = r * pose.linear();
   out.translation() = r * (pose.translation() - centre) + centre + t;
-  return out;
+  return geometry::normalized(out);
 }
 
 Eigen::Matrix3d so3LeftJacobian(const Eigen::Vector3d& w) {

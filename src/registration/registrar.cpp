@@ -6,9 +6,11 @@
 #include <cmath>
 
 #include <ceres/ceres.h>
+#include <opencv2/imgproc.hpp>
 
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/registration/contour_distance_cost.h"
+#include "fluoro_tracker/registration/edge_to_contour_cost.h"
 #include "fluoro_tracker/registration/pose_increment.h"
 
 namespace fluoro_tracker {
@@ -59,6 +61,67 @@ bool isViewable(const BoneModel& bone, const geometry::Pose& pose,
     if (!box.intersects(image)) return false;
   }
   return true;
+}
+
+// Pairs image edge pixels within `band` pixels of a projected contour with their nearest
+// contour sample (a labelled distance transform of the drawn contour), taking at most
+// `max_pairs` edges spread evenly.
+std::vector<EdgeToContourCost::Pair> edgeContourPairs(
+    const imaging::EdgeMap& map, const std::vector<imaging::ContourPoint>& contour,
+    const geometry::Pose& pose, double band, std::size_t max_pairs) {
+  // Work in the crop around the contour that the band can reach.
+  Eigen::AlignedBox2d box;
+  for (const auto& c : contour) box.extend(c.pixel);
+  const int margin = static_cast<int>(std::ceil(band)) + 2;
+  const cv::Rect crop =
+      cv::Rect(cv::Point(static_cast<int>(std::floor(box.min().x())) - margin,
+                         static_cast<int>(std::floor(box.min().y())) - margin),
+               cv::Point(static_cast<int>(std::ceil(box.max().x())) + margin + 1,
+                         static_cast<int>(std::ceil(box.max().y())) + margin + 1)) &
+      cv::Rect(0, 0, map.edges().cols, map.edges().rows);
+  if (crop.area() == 0) return {};
+  const cv::Mat edges = map.edges()(crop);
+  cv::Mat index(edges.size(), CV_32S, cv::Scalar(-1));
+  cv::Mat not_contour(edges.size(), CV_8U, cv::Scalar(255));
+  for (std::size_t j = 0; j < contour.size(); ++j) {
+    const int u = static_cast<int>(std::lround(contour[j].pixel.x())) - crop.x;
+    const int v = static_cast<int>(std::lround(contour[j].pixel.y())) - crop.y;
+    if (u < 0 || v < 0 || u >= edges.cols || v >= edges.rows) continue;
+    index.at<int>(v, u) = static_cast<int>(j);
+    not_contour.at<std::uint8_t>(v, u) = 0;
+  }
+  cv::Mat distance;
+  cv::Mat labels;
+  cv::distanceTransform(not_contour, distance, labels, cv::DIST_L2, cv::DIST_MASK_5,
+                        cv::DIST_LABEL_PIXEL);
+  // Label -> contour sample, read at the contour pixels themselves.
+  std::vector<int> sample_of_label(static_cast<std::size_t>(edges.total()) + 1, -1);
+  for (int v = 0; v < edges.rows; ++v) {
+    for (int u = 0; u < edges.cols; ++u) {
+      if (not_contour.at<std::uint8_t>(v, u) == 0) {
+        sample_of_label[labels.at<int>(v, u)] = index.at<int>(v, u);
+      }
+    }
+  }
+  std::vector<cv::Point> candidates;
+  for (int v = 0; v < edges.rows; ++v) {
+    const std::uint8_t* e = edges.ptr<std::uint8_t>(v);
+    const float* d = distance.ptr<float>(v);
+    for (int u = 0; u < edges.cols; ++u) {
+      if (e[u] != 0 && d[u] <= band) candidates.emplace_back(u, v);
+    }
+  }
+  const std::size_t stride = std::max<std::size_t>(
+      1, (candidates.size() + max_pairs - 1) / std::max<std::size_t>(1, max_pairs));
+  std::vector<EdgeToContourCost::Pair> pairs;
+  for (std::size_t k = 0; k < candidates.size(); k += stride) {
+    const cv::Point& c = candidates[k];
+    const int j = sample_of_label[labels.at<int>(c.y, c.x)];
+    if (j < 0) continue;
+    pairs.push_back({pose * contour[j].model_point, contour[j].normal,
+                     Eigen::Vector2d(c.x + crop.x, c.y + crop.y)});
+  }
+  return pairs;
 }
 
 }  // namespace
@@ -138,9 +201,20 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
           points.reserve(contour.size());
           for (const auto& c : contour) points.push_back(pose * c.model_point);
           points_in_views += static_cast<int>(points.size());
+          const std::size_t forward_count = points.size();
           problem.AddResidualBlock(new ContourDistanceCost(&maps[v], std::move(points), centres[b],
                                                            robust_scale, bones_[b].image_weight),
                                    nullptr, increments[b].data());
+          if (settings_.reverse_term_weight > 0.0) {
+            auto pairs = edgeContourPairs(maps[v], contour, pose, settings_.reverse_band_px * scale,
+                                          forward_count);
+            if (!pairs.empty()) {
+              problem.AddResidualBlock(
+                  new EdgeToContourCost(camera, std::move(pairs), centres[b], robust_scale,
+                                        settings_.reverse_term_weight * bones_[b].image_weight),
+                  nullptr, increments[b].data());
+            }
+          }
         }
         result.contour_points[b] = points_in_views;
       }
@@ -165,7 +239,12 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
         if (!problem.HasParameterBlock(increments[b].data())) continue;
         const auto& inc = increments[b];
         const geometry::Pose moved = applyIncrement(result.poses[b], centres[b], inc.data());
-        if (!isViewable(bones_[b], moved, views)) {
+        const bool plausible =
+            (moved.translation() - initial_poses[b].translation()).norm() <=
+                settings_.max_translation_from_start_m &&
+            geometry::rotationAngleBetween(moved.linear(), initial_poses[b].linear()) <=
+                settings_.max_rotation_from_start_rad;
+        if (!plausible || !isViewable(bones_[b], moved, views)) {
           result.diverged[b] = true;
           continue;
         }

@@ -88,7 +88,7 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   m.read("shank_inclination_ratio", &s.motion.shank_inclination_ratio);
 
   const Reader d = r.child("detector");
-  d.allowOnly({"photons_per_pixel", "blur_sigma_px", "scatter_to_primary", "scatter_sigma_px",
+  d.allowOnly({"photons_per_pixel", "blur_sigma_px", "scatter_strength", "scatter_sigma_mm",
                "window_max_attenuation", "window_min_attenuation", "implants_bright", "bit_depth",
                "collimator_radius_fraction", "collimator_attenuation"});
   d.read("photons_per_pixel", &s.detector.photons_per_pixel);

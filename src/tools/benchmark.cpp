@@ -282,6 +282,9 @@ int main(int argc, char** argv) {
       "Levenberg-Marquardt iterations per outer iteration")(
       "robust-px", po::value(&settings.robust_scale_px)->default_value(settings.robust_scale_px),
       "Cauchy scale of the contour distance, full-resolution pixels")(
+      "reverse-weight",
+      po::value(&settings.reverse_term_weight)->default_value(settings.reverse_term_weight),
+      "weight of the edge-to-contour (reverse) term; 0: forward term only")(
       "ideal", "simulate without anatomy and noise (isolates the method from image clutter)");
   po::variables_map vm;
   try {

@@ -13,6 +13,10 @@ using Pose = Eigen::Isometry3d;
 Pose makePose(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation);
 Pose makePose(const Eigen::Quaterniond& rotation, const Eigen::Vector3d& translation);
 
+// The pose with its rotation replaced by the nearest rotation matrix (SVD), to stop
+// round-off from accumulating over long chains of compositions.
+Pose normalized(const Pose& pose);
+
 // True if every element of the transform is finite and its rotation is orthonormal
 // (within tolerance) with determinant +1.
 bool isValidPose(const Pose& pose, double tolerance = 1e-6);

@@ -22,7 +22,15 @@ struct RegistrationSettings {
   int solver_iterations = 8;        // Levenberg-Marquardt iterations per outer iteration
   double contour_spacing_px = 1.0;  // contour sample spacing at each scale
   double robust_scale_px = 4.0;     // Cauchy scale, full-resolution pixels
-  double roi_margin_px = 60.0;      // edge maps cover the projected bones plus this margin
+  double roi_margin_px = 60.0;
+  // The reverse term (image edges near the projection -> contour): its weight relative to the
+  // forward term (0 turns it off) and how far from the projected contour edges are paired.
+  double reverse_term_weight = 1.0;
+  double reverse_band_px = 8.0;  // edge maps cover the projected bones plus this margin
+  // A bone that would end farther than this from its starting pose has diverged (the solver
+  // ran down a weakly constrained direction): it is kept at its last plausible pose.
+  double max_translation_from_start_m = 0.03;
+  double max_rotation_from_start_rad = 0.5;
   // Stop when no bone moves more than this between outer iterations.
   double converged_translation_m = 2e-5;
   double converged_rotation_rad = 2e-4;
@@ -52,7 +60,8 @@ struct RegistrationResult {
   int outer_iterations = 0;
   std::vector<int> contour_points;  // per bone, at the finest scale
   // Per bone: a step would have carried it out of a view's field (behind the source or wholly
-  // outside the image); it was kept at its last valid pose and not moved further.
+  // outside the image) or beyond the plausible distance from its start; it was kept at its
+  // last valid pose and not moved further.
   std::vector<bool> diverged;
 };
 

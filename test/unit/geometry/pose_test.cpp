@@ -74,3 +74,13 @@ TEST(Pose, RotationAngleBetween) {
   EXPECT_NEAR(rotationAngleBetween(rotationZ(0.1), rotationZ(0.4)), 0.3, 1e-12);
   EXPECT_NEAR(rotationAngleBetween(Eigen::Matrix3d::Identity(), rotationX(M_PI)), M_PI, 1e-9);
 }
+
+TEST(Pose, NormalizedRestoresARotationThatDrifted) {
+  Pose p = makePose(rotationZ(0.3), Eigen::Vector3d(1, 2, 3));
+  p.linear() *= 1.0 + 1e-5;  // round-off accumulated over many compositions
+  ASSERT_FALSE(isValidPose(p));
+  const Pose n = normalized(p);
+  EXPECT_TRUE(isValidPose(n, 1e-12));
+  EXPECT_NEAR(rotationAngleBetween(n.linear(), rotationZ(0.3)), 0.0, 1e-9);
+  EXPECT_TRUE(n.translation().isApprox(Eigen::Vector3d(1, 2, 3)));
+}

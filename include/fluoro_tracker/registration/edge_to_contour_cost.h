@@ -1,0 +1,42 @@
+#pragma once
+
+#include <vector>
+
+#include <ceres/cost_function.h>
+
+#include "fluoro_tracker/geometry/pose.h"
+#include "fluoro_tracker/geometry/xray_camera.h"
+
+namespace fluoro_tracker {
+namespace registration {
+
+// The reverse half of the dissertation's contour metric, for one bone in one view: image edge
+// pixels near the projected contour, each paired (for one outer iteration) with its nearest
+// contour sample, contribute their distance to that sample's tangent line, n·(e − u(δ)),
+// Cauchy-robustified and weighted. It penalises a projection that is smaller than the edges
+// around it, which the forward term alone would reward. Analytic Jacobians.
+class EdgeToContourCost : public ceres::CostFunction {
+ public:
+  struct Pair {
+    Eigen::Vector3d contour_point_fixed;  // contour sample at the current pose, fixed frame
+    Eigen::Vector2d normal;               // its outward normal in the image
+    Eigen::Vector2d edge_pixel;           // the image edge paired with it
+  };
+
+  EdgeToContourCost(const geometry::XrayCamera& camera, std::vector<Pair> pairs,
+                    const Eigen::Vector3d& centre, double robust_scale_px, double weight);
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  geometry::XrayCamera camera_;
+  geometry::Pose camera_from_fixed_;
+  std::vector<Pair> pairs_;
+  Eigen::Vector3d centre_;
+  double robust_scale_;
+  double sqrt_weight_;
+};
+
+}  // namespace registration
+}  // namespace fluoro_tracker

@@ -1,0 +1,201 @@
+#include "fluoro_tracker/ros/bag_frame_reader.h"
+
+#include <filesystem>
+#include <set>
+
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <tf2/buffer_core.h>
+#include <tf2_eigen/tf2_eigen.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/ros/conversions.h"
+
+namespace fluoro_tracker {
+namespace ros_bridge {
+
+namespace {
+
+std::string siblingInfoTopic(const std::string& image_topic) {
+  const auto slash = image_topic.rfind('/');
+  return (slash == std::string::npos ? std::string() : image_topic.substr(0, slash)) +
+         "/camera_info";
+}
+
+}  // namespace
+
+struct BagFrameReader::Impl {
+  rosbag::Bag bag;
+  std::vector<std::string> info_topics;
+  tf2::BufferCore static_tf{ros::Duration(1e6)};
+};
+
+BagFrameReader::BagFrameReader(const std::string& bag_path, std::vector<std::string> image_topics,
+                               std::string fixed_frame)
+    : impl_(std::make_unique<Impl>()),
+      image_topics_(std::move(image_topics)),
+      fixed_frame_(std::move(fixed_frame)) {
+  if (!std::filesystem::exists(bag_path)) throw InputError("bag '" + bag_path + "' does not exist");
+  try {
+    impl_->bag.open(bag_path, rosbag::bagmode::Read);
+  } catch (const rosbag::BagException& e) {
+    throw InputError("bag '" + bag_path + "' cannot be read: " + e.what());
+  }
+  rosbag::View all(impl_->bag);
+  std::set<std::string> topics;
+  std::map<std::string, std::string> types;
+  for (const rosbag::ConnectionInfo* c : all.getConnections()) {
+    topics.insert(c->topic);
+    types[c->topic] = c->datatype;
+  }
+  if (image_topics_.empty()) {
+    for (const auto& [topic, type] : types) {
+      if (type == "sensor_msgs/Image") image_topics_.push_back(topic);
+    }
+  }
+  if (image_topics_.empty())
+    throw InputError("bag '" + bag_path + "' has no sensor_msgs/Image topic");
+  for (const auto& topic : image_topics_) {
+    if (!topics.count(topic))
+      throw InputError("bag '" + bag_path + "' has no topic '" + topic + "'");
+    if (types[topic] != "sensor_msgs/Image") {
+      throw InputError("topic '" + topic + "' in bag '" + bag_path + "' carries " + types[topic] +
+                       ", not sensor_msgs/Image");
+    }
+    const std::string info = siblingInfoTopic(topic);
+    if (!topics.count(info)) {
+      throw InputError("bag '" + bag_path + "' has no camera_info for '" + topic + "' (expected '" +
+                       info + "')");
+    }
+    impl_->info_topics.push_back(info);
+  }
+  expected_frames_ = rosbag::View(impl_->bag, rosbag::TopicQuery(image_topics_[0])).size();
+  for (const rosbag::MessageInstance& m :
+       rosbag::View(impl_->bag, rosbag::TopicQuery(std::vector<std::string>{"/tf_static"}))) {
+    if (const auto tf = m.instantiate<tf2_msgs::TFMessage>()) {
+      for (const auto& t : tf->transforms) impl_->static_tf.setTransform(t, "bag", true);
+    }
+  }
+}
+
+BagFrameReader::~BagFrameReader() = default;
+
+void BagFrameReader::read(const FrameCallback& consume, const SkipCallback& skipped) {
+  const std::size_t views = image_topics_.size();
+  std::vector<std::optional<geometry::XrayCamera>> info(views);
+  struct Pending {
+    int index = 0;
+    std::vector<cv::Mat> images;
+    std::vector<geometry::XrayCamera> cameras;
+    std::size_t filled = 0;
+    std::string problem;
+  };
+  std::map<double, Pending> pending;  // by header stamp
+  int next_index = 0;
+
+  std::vector<std::string> topics = image_topics_;
+  topics.insert(topics.end(), impl_->info_topics.begin(), impl_->info_topics.end());
+  rosbag::View view(impl_->bag, rosbag::TopicQuery(topics));
+  const auto flushOlderThan = [&](double stamp) {
+    // Frames older than `stamp` that still miss a view will not be completed.
+    while (!pending.empty() && pending.begin()->first < stamp && views > 1) {
+      const auto& [s, p] = *pending.begin();
+      skipped(p.index, s, p.problem.empty() ? "a view has no image at this stamp" : p.problem);
+      pending.erase(pending.begin());
+    }
+  };
+  // Images that arrived before any camera_info of their view (in a bag, an image and the
+  // camera_info of the same stamp come in either order): held until the camera_info arrives.
+  std::vector<std::vector<sensor_msgs::Image::ConstPtr>> waiting(views);
+  const auto handleImage = [&](std::size_t v, const sensor_msgs::Image& msg) {
+    const double stamp = msg.header.stamp.toSec();
+    auto it = pending.find(stamp);
+    if (it == pending.end()) {
+      flushOlderThan(stamp);
+      Pending p;
+      p.index = next_index++;
+      p.images.resize(views);
+      p.cameras.resize(views);
+      it = pending.emplace(stamp, std::move(p)).first;
+    }
+    Pending& p = it->second;
+    try {
+      if (!info[v]) {
+        throw InputError("no valid camera_info on '" + impl_->info_topics[v] + "' for this image");
+      }
+      geometry::XrayCamera camera = *info[v];
+      if (static_cast<int>(msg.width) != camera.width() ||
+          static_cast<int>(msg.height) != camera.height()) {
+        throw InputError("image on '" + image_topics_[v] + "' is " + std::to_string(msg.width) +
+                         "x" + std::to_string(msg.height) + " but its camera_info says " +
+                         std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
+      }
+      if (!msg.header.frame_id.empty()) camera.setFrameId(msg.header.frame_id);
+      if (fixed_frame_.empty()) fixed_frame_ = camera.frameId();
+      if (camera.frameId() != fixed_frame_) {
+        try {
+          const auto t =
+              impl_->static_tf.lookupTransform(fixed_frame_, camera.frameId(), ros::Time(0));
+          camera.setWorldFromCamera(tf2::transformToEigen(t));
+        } catch (const tf2::TransformException& e) {
+          throw InputError("view '" + camera.frameId() + "' is not tied to the fixed frame '" +
+                           fixed_frame_ + "' by /tf_static in the bag: " + e.what());
+        }
+      }
+      p.images[v] = fromImageMessage(msg);
+      p.cameras[v] = camera;
+      ++p.filled;
+    } catch (const InputError& e) {
+      p.problem = e.what();
+    }
+    if (!p.problem.empty()) {
+      skipped(p.index, stamp, p.problem);
+      pending.erase(it);
+    } else if (p.filled == views) {
+      BagFrame frame;
+      frame.index = p.index;
+      frame.stamp_s = stamp;
+      frame.images = std::move(p.images);
+      frame.cameras = std::move(p.cameras);
+      pending.erase(it);
+      consume(frame);
+    }
+  };
+
+  for (const rosbag::MessageInstance& m : view) {
+    const std::string& topic = m.getTopic();
+    for (std::size_t v = 0; v < views; ++v) {
+      if (topic == impl_->info_topics[v]) {
+        const auto msg = m.instantiate<sensor_msgs::CameraInfo>();
+        if (!msg) continue;
+        try {
+          info[v] = fromCameraInfo(*msg);
+        } catch (const InputError&) {
+          info[v].reset();  // reported with the next image of this view
+        }
+        if (info[v]) {
+          for (const auto& image : waiting[v]) handleImage(v, *image);
+          waiting[v].clear();
+        }
+      } else if (topic == image_topics_[v]) {
+        const auto msg = m.instantiate<sensor_msgs::Image>();
+        if (!msg) continue;
+        if (!info[v]) {
+          waiting[v].push_back(msg);
+        } else {
+          handleImage(v, *msg);
+        }
+      }
+    }
+  }
+  for (std::size_t v = 0; v < views; ++v) {
+    for (const auto& image : waiting[v]) handleImage(v, *image);  // reported: no camera_info
+  }
+  flushOlderThan(std::numeric_limits<double>::infinity());
+}
+
+}  // namespace ros_bridge
+}  // namespace fluoro_tracker

@@ -1,0 +1,236 @@
+// track_bag: tracks every bone through a recorded (or simulated) fluoroscopy bag without a ROS
+// master, per docs/interfaces.md: each frame is registered from the previous frame's solution
+// (constant-velocity prediction), or, with --init-csv, on its own from a given guess.
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <map>
+
+#include <unistd.h>
+#include <boost/program_options.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/io/poses_csv.h"
+#include "fluoro_tracker/io/trial_config.h"
+#include "fluoro_tracker/registration/registrar.h"
+#include "fluoro_tracker/ros/bag_frame_reader.h"
+
+namespace po = boost::program_options;
+using namespace fluoro_tracker;
+using geometry::Pose;
+
+namespace {
+
+// Draws each bone's projected outer contour in its colour on the first view.
+cv::Mat overlay(const ros_bridge::BagFrame& frame,
+                const std::vector<registration::BoneModel>& bones, const std::vector<Pose>& poses) {
+  cv::Mat grey = frame.images[0];
+  if (grey.depth() == CV_16U) grey.convertTo(grey, CV_8U, 1.0 / 257.0);
+  cv::Mat out;
+  cv::cvtColor(grey, out, cv::COLOR_GRAY2BGR);
+  const cv::Scalar colours[] = {{0, 255, 0}, {0, 200, 255}, {255, 128, 0}, {255, 0, 255}};
+  const auto& camera = frame.cameras[0];
+  for (std::size_t b = 0; b < bones.size(); ++b) {
+    const Pose camera_from_bone = camera.worldFromCamera().inverse() * poses[b];
+    for (const auto& c : bones[b].silhouette->contour(camera, camera_from_bone, 1.0)) {
+      cv::circle(out, cv::Point2d(c.pixel.x(), c.pixel.y()), 1, colours[b % 4], cv::FILLED);
+    }
+  }
+  return out;
+}
+
+struct Accuracy {
+  std::vector<Eigen::Matrix<double, 6, 1>> errors;  // per bone-frame: tx ty tz (mm), rx ry rz (deg)
+  int frames = 0;
+  int frames_within = 0;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  po::options_description options(
+      "track_bag: track bones through a fluoroscopy bag (no ROS master needed)\n\nOptions");
+  std::string config_path, bag_path, poses_path, kinematics_path, out_bag, init_path, truth_path,
+      overlay_dir;
+  std::vector<std::string> image_topics;
+  int overlay_every = 10;
+  options.add_options()("help,h", "show this help")("config", po::value(&config_path)->required(),
+                                                    "trial YAML")(
+      "bag", po::value(&bag_path)->required(), "input bag")(
+      "poses-csv", po::value(&poses_path)->required(), "output poses CSV")(
+      "kinematics-csv", po::value(&kinematics_path), "joint kinematics CSV (not available yet)")(
+      "out-bag", po::value(&out_bag), "output bag (not available yet)")(
+      "init-csv", po::value(&init_path),
+      "per-frame starting poses (poses CSV); each frame on its own")(
+      "image-topic", po::value(&image_topics)->multitoken(),
+      "image topic(s); default: all in the bag")("truth-csv", po::value(&truth_path),
+                                                 "ground-truth poses CSV: print the accuracy")(
+      "overlay-dir", po::value(&overlay_dir), "write contour overlays (PNG) here")(
+      "overlay-every", po::value(&overlay_every)->default_value(overlay_every),
+      "overlay every Nth frame");
+  po::variables_map vm;
+  try {
+    po::store(po::parse_command_line(argc, argv, options), vm);
+    if (vm.count("help")) {
+      std::cout << options << "\n";
+      return 0;
+    }
+    po::notify(vm);
+  } catch (const po::error& e) {
+    std::cerr << "track_bag: " << e.what() << "\n" << options << "\n";
+    return 2;
+  }
+  if (!kinematics_path.empty() || !out_bag.empty()) {
+    std::cerr << "track_bag: error: --kinematics-csv and --out-bag are not implemented yet "
+                 "(joint kinematics and bag output are still to come)\n";
+    return 2;
+  }
+
+  try {
+    const io::TrialConfig config = io::loadTrialConfig(config_path);
+    std::vector<geometry::Mesh> meshes;
+    std::vector<registration::BoneModel> bones;
+    for (const auto& bone : config.bones) {
+      geometry::MeshLoadOptions load;
+      load.file_units = bone.mesh_units;
+      meshes.push_back(geometry::Mesh::load(bone.mesh, load));
+      bones.push_back({bone.name, std::make_shared<imaging::SilhouetteModel>(meshes.back()), 1.0});
+    }
+    const registration::Registrar registrar(bones, registration::RegistrationSettings());
+
+    // Starting poses: per-frame guesses, or the trial's initial poses then the previous frames.
+    std::map<std::pair<int, std::string>, Pose> guesses;
+    if (!init_path.empty()) {
+      for (const auto& r : io::readPosesCsv(init_path)) guesses[{r.frame, r.bone}] = r.pose;
+    } else {
+      for (const auto& bone : config.bones) {
+        if (!bone.initial_pose) {
+          throw InputError("bone '" + bone.name + "' has no initial_pose in '" + config_path +
+                           "' and no --init-csv was given (automatic initialisation is not "
+                           "available yet)");
+        }
+      }
+    }
+    std::map<std::pair<int, std::string>, Pose> truth;
+    if (!truth_path.empty()) {
+      for (const auto& r : io::readPosesCsv(truth_path)) truth[{r.frame, r.bone}] = r.pose;
+    }
+    if (!overlay_dir.empty()) std::filesystem::create_directories(overlay_dir);
+
+    ros_bridge::BagFrameReader reader(bag_path, image_topics, config.fixed_frame);
+    std::vector<Pose> previous;
+    std::vector<Pose> before_previous;
+    for (const auto& bone : config.bones) {
+      if (bone.initial_pose) previous.push_back(*bone.initial_pose);
+    }
+    std::vector<io::PoseRecord> records;
+    Accuracy accuracy;
+    int tracked = 0, skipped = 0, flagged = 0;
+    const bool interactive = isatty(STDOUT_FILENO);
+    const auto start = std::chrono::steady_clock::now();
+    const std::size_t expected = reader.expectedFrames();
+
+    reader.read(
+        [&](const ros_bridge::BagFrame& frame) {
+          std::vector<Pose> guess(bones.size());
+          for (std::size_t b = 0; b < bones.size(); ++b) {
+            if (!init_path.empty()) {
+              const auto it = guesses.find({frame.index, bones[b].name});
+              if (it == guesses.end()) {
+                throw InputError("--init-csv has no pose for bone '" + bones[b].name +
+                                 "' at frame " + std::to_string(frame.index));
+              }
+              guess[b] = it->second;
+            } else if (before_previous.size() == bones.size()) {
+              // Constant velocity: repeat the last frame-to-frame motion.
+              guess[b] =
+                  geometry::normalized(previous[b] * (before_previous[b].inverse() * previous[b]));
+            } else {
+              guess[b] = previous[b];
+            }
+          }
+          std::vector<registration::ViewImage> views;
+          for (std::size_t v = 0; v < frame.images.size(); ++v)
+            views.push_back({frame.images[v], frame.cameras[v]});
+          registration::RegistrationResult result;
+          try {
+            result = registrar.solve(views, guess);
+          } catch (const InputError& e) {
+            // Keep going: the frame is reported lost at its starting poses.
+            std::cerr << "track_bag: frame " << frame.index << ": " << e.what() << "\n";
+            result.poses = guess;
+            result.diverged.assign(bones.size(), true);
+          }
+          bool frame_flagged = false;
+          for (std::size_t b = 0; b < bones.size(); ++b) {
+            const std::string status = result.diverged[b] ? "lost" : "ok";
+            frame_flagged = frame_flagged || status != "ok";
+            records.push_back({frame.index, frame.stamp_s, bones[b].name, result.poses[b], status});
+          }
+          flagged += frame_flagged ? 1 : 0;
+          ++tracked;
+          before_previous = frame_flagged ? std::vector<Pose>() : previous;
+          previous = result.poses;
+
+          if (!truth.empty()) {
+            const Pose camera_from_fixed = frame.cameras[0].worldFromCamera().inverse();
+            bool within = true;
+            for (std::size_t b = 0; b < bones.size(); ++b) {
+              const auto it = truth.find({frame.index, bones[b].name});
+              if (it == truth.end()) continue;
+              Eigen::Matrix<double, 6, 1> e;
+              e.head<3>() = 1e3 * camera_from_fixed.linear() *
+                            (result.poses[b].translation() - it->second.translation());
+              const Eigen::AngleAxisd d(it->second.linear().transpose() * result.poses[b].linear());
+              e.tail<3>() = geometry::radToDeg(d.angle()) * d.axis();
+              accuracy.errors.push_back(e);
+              within = within && std::abs(e[0]) <= 1.0 && std::abs(e[1]) <= 1.0 &&
+                       std::abs(e[3]) <= 2.0 && std::abs(e[4]) <= 3.0 && std::abs(e[5]) <= 2.0;
+            }
+            ++accuracy.frames;
+            accuracy.frames_within += within ? 1 : 0;
+          }
+          if (!overlay_dir.empty() && frame.index % std::max(1, overlay_every) == 0) {
+            char name[64];
+            std::snprintf(name, sizeof(name), "/overlay_%04d.png", frame.index);
+            cv::imwrite(overlay_dir + name, overlay(frame, bones, result.poses));
+          }
+          if (tracked % 10 == 0) {
+            std::cout << (interactive ? "\r" : "") << "track_bag: frame " << tracked + skipped
+                      << "/" << expected << (interactive ? "" : "\n") << std::flush;
+          }
+        },
+        [&](int index, double stamp, const std::string& reason) {
+          ++skipped;
+          std::cerr << "track_bag: skipped frame " << index << " (stamp " << std::fixed
+                    << std::setprecision(3) << stamp << "): " << reason << "\n";
+        });
+    if (interactive) std::cout << "\n";
+    io::writePosesCsv(poses_path, records);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::cout << "track_bag: " << tracked + skipped << " frame(s), " << tracked << " tracked, "
+              << skipped << " skipped, " << flagged << " flagged, " << std::fixed
+              << std::setprecision(1) << (seconds > 0 ? tracked / seconds : 0.0)
+              << " frames/s; poses in " << poses_path << "\n";
+    if (!accuracy.errors.empty()) {
+      Eigen::Matrix<double, 6, 1> rms = Eigen::Matrix<double, 6, 1>::Zero();
+      for (const auto& e : accuracy.errors) rms += e.cwiseProduct(e);
+      rms = (rms / accuracy.errors.size()).cwiseSqrt();
+      std::cout << std::setprecision(2) << "track_bag: accuracy against " << truth_path << ": "
+                << accuracy.frames_within << "/" << accuracy.frames
+                << " frames within 1 mm in-plane, 2 deg about X and Z, 3 deg about Y; RMS tx "
+                << rms[0] << " mm, ty " << rms[1] << " mm, tz (along the beam) " << rms[2]
+                << " mm, rx " << rms[3] << " deg, ry " << rms[4] << " deg, rz " << rms[5]
+                << " deg\n";
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "track_bag: error: " << e.what() << "\n";
+    return 1;
+  }
+}
