@@ -223,7 +223,8 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
       ceres::Solver::Options options;
       options.minimizer_type = ceres::TRUST_REGION;
       options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-      options.linear_solver_type = ceres::DENSE_QR;
+      // A handful of unknowns against thousands of residuals: the 6n x 6n normal equations.
+      options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
       options.max_num_iterations = settings_.solver_iterations;
       options.num_threads = 1;
       options.logging_type = ceres::SILENT;
