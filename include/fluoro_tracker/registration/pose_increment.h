@@ -17,5 +17,29 @@ geometry::Pose applyIncrement(const geometry::Pose& pose, const Eigen::Vector3d&
 // Left Jacobian of SO(3): d/dw [R(w)·v] = −[R(w)·v]× · J(w).
 Eigen::Matrix3d so3LeftJacobian(const Eigen::Vector3d& w);
 
+// Moves fixed-frame points by one increment into a view's optical frame, and chains a
+// derivative with respect to that camera-frame point back to the increment. Shared by every
+// image cost; built once per evaluation.
+class IncrementedPoints {
+ public:
+  IncrementedPoints(const double* increment, const Eigen::Vector3d& centre,
+                    const geometry::Pose& camera_from_fixed);
+
+  // The moved point in the optical frame; `rotated` receives R(w)·(q − c), which the
+  // Jacobian needs.
+  Eigen::Vector3d toCamera(const Eigen::Vector3d& q_fixed, Eigen::Vector3d* rotated) const;
+  // row[0..5] = d(value)/d(increment), given d(value)/d(camera point).
+  void chain(const Eigen::RowVector3d& d_camera_point, const Eigen::Vector3d& rotated,
+             double* row) const;
+
+ private:
+  Eigen::Matrix3d rotation_;
+  Eigen::Matrix3d left_jacobian_;
+  Eigen::Vector3d translation_;
+  Eigen::Vector3d centre_;
+  Eigen::Matrix3d camera_rotation_;
+  Eigen::Vector3d camera_translation_;
+};
+
 }  // namespace registration
 }  // namespace fluoro_tracker
