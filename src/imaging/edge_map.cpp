@@ -11,6 +11,39 @@ namespace fluoro_tracker {
 namespace imaging {
 namespace {
 
+// Grey levels below which `low` and `high` fractions of an 8- or 16-bit region lie, from its
+// histogram (linear time, no copy).
+std::pair<double, double> percentiles(const cv::Mat& region, double low, double high) {
+  const int levels = region.depth() == CV_8U ? 256 : 65536;
+  std::vector<std::size_t> histogram(levels, 0);
+  for (int v = 0; v < region.rows; ++v) {
+    if (region.depth() == CV_8U) {
+      const std::uint8_t* row = region.ptr<std::uint8_t>(v);
+      for (int u = 0; u < region.cols; ++u) ++histogram[row[u]];
+    } else {
+      const std::uint16_t* row = region.ptr<std::uint16_t>(v);
+      for (int u = 0; u < region.cols; ++u) ++histogram[row[u]];
+    }
+  }
+  const double total = static_cast<double>(region.total());
+  double lo = 0.0;
+  double hi = levels - 1.0;
+  std::size_t count = 0;
+  bool lo_found = false;
+  for (int g = 0; g < levels; ++g) {
+    count += histogram[g];
+    if (!lo_found && count > low * total) {
+      lo = g;
+      lo_found = true;
+    }
+    if (count >= high * total) {
+      hi = g;
+      break;
+    }
+  }
+  return {lo, hi};
+}
+
 // Value below which `fraction` of the (non-negative) values of a CV_32F image lie.
 float percentile(const cv::Mat& values, double fraction) {
   std::vector<float> v(values.begin<float>(), values.end<float>());
@@ -64,10 +97,10 @@ EdgeMap::EdgeMap(const cv::Mat& image, const geometry::XrayCamera& camera, const
                                  camera_.cy(), camera_.frameId());
   camera_.setWorldFromCamera(camera.worldFromCamera());
 
-  // Window to 8 bits between robust percentiles.
-  const float lo = percentile(region, s.window_low_percentile / 100.0);
-  float hi = percentile(region, s.window_high_percentile / 100.0);
-  if (hi <= lo) hi = lo + 1.0f;
+  // Window to 8 bits between robust percentiles of the region's grey levels.
+  const auto [lo, hi_raw] =
+      percentiles(image(roi_), s.window_low_percentile / 100.0, s.window_high_percentile / 100.0);
+  const double hi = hi_raw > lo ? hi_raw : lo + 1.0;
   region.convertTo(grey_, CV_8U, 255.0 / (hi - lo), -255.0 * lo / (hi - lo));
   if (s.clahe) {
     cv::createCLAHE(s.clahe_clip_limit, cv::Size(8, 8))->apply(grey_, grey_);

@@ -198,6 +198,14 @@ cv::Mat Renderer::pathLength(const geometry::XrayCamera& camera, const geometry:
   return result;
 }
 
+cv::Mat Renderer::coverage(const geometry::XrayCamera& camera, const geometry::Mesh& mesh,
+                           const geometry::Pose& camera_from_mesh) {
+  cv::Mat sum = cv::Mat::zeros(camera.height(), camera.width(), CV_64F);
+  accumulate(camera, mesh, camera_from_mesh, 1.0, &sum);
+  // Lengths along a z=1 ray: a covered pixel has at least ~1 micrometre; round-off is far below.
+  return sum > 1e-6;
+}
+
 cv::Mat Renderer::lineIntegral(const geometry::XrayCamera& camera,
                                const std::vector<RenderObject>& objects) {
   cv::Mat result = cv::Mat::zeros(camera.height(), camera.width(), CV_64F);

@@ -12,8 +12,6 @@ namespace {
 
 // Offset (pixels) at which the mask is probed on either side of a contour sample.
 constexpr double kProbePx = 1.5;
-// Path length above which a pixel counts as covered by the mesh.
-constexpr double kCoveredM = 1e-7;
 
 }  // namespace
 
@@ -65,12 +63,12 @@ std::vector<ContourPoint> SilhouetteModel::contour(const geometry::XrayCamera& c
   std::vector<ContourPoint> out;
   if (x1 <= x0 || y1 <= y0) return out;  // entirely outside the image
   const geometry::XrayCamera crop = camera.cropped(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
-  const cv::Mat path = Renderer::pathLength(crop, mesh_, camera_from_mesh);
+  const cv::Mat mask = Renderer::coverage(crop, mesh_, camera_from_mesh);
   const auto covered = [&](const Eigen::Vector2d& p) {
     const int u = static_cast<int>(std::lround(p.x())) - x0;
     const int v = static_cast<int>(std::lround(p.y())) - y0;
-    if (u < 0 || v < 0 || u >= path.cols || v >= path.rows) return false;
-    return path.at<double>(v, u) > kCoveredM;
+    if (u < 0 || v < 0 || u >= mask.cols || v >= mask.rows) return false;
+    return mask.at<std::uint8_t>(v, u) != 0;
   };
 
   const Eigen::Matrix3d rotation = camera_from_mesh.linear();

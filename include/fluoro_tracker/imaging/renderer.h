@@ -36,6 +36,11 @@ class Renderer {
   static cv::Mat pathLength(const geometry::XrayCamera& camera, const geometry::Mesh& mesh,
                             const geometry::Pose& camera_from_mesh);
 
+  // Silhouette mask (CV_8U, 255 where the ray crosses the mesh): the path-length sum without
+  // the per-pixel ray-length scaling, which does not change its sign.
+  static cv::Mat coverage(const geometry::XrayCamera& camera, const geometry::Mesh& mesh,
+                          const geometry::Pose& camera_from_mesh);
+
   // Attenuation line integral Σ μ·L (dimensionless, CV_64F) through all objects.
   static cv::Mat lineIntegral(const geometry::XrayCamera& camera,
                               const std::vector<RenderObject>& objects);
