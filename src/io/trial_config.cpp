@@ -54,6 +54,49 @@ bool enabledFlag(const YAML::Node& joint, const std::string& key, const std::str
   return required<bool>(section, "enabled", context + "." + key);
 }
 
+// The `registration:` section: solver schedule, robust scales and edge detection.
+registration::RegistrationSettings readRegistrationSettings(const YAML::Node& node,
+                                                            const std::string& context) {
+  registration::RegistrationSettings r;
+  const YamlSection section(node, context);
+  section.allowOnly({"scales", "outer_iterations", "solver_iterations", "contour_spacing_px",
+                     "robust_scale_px", "roi_margin_px", "reverse_term_weight", "reverse_band_px",
+                     "max_translation_from_start_m", "max_rotation_from_start_rad",
+                     "converged_translation_m", "converged_rotation_rad", "edges"});
+  section.read("scales", &r.scales);
+  section.read("outer_iterations", &r.outer_iterations);
+  section.read("solver_iterations", &r.solver_iterations);
+  section.read("contour_spacing_px", &r.contour_spacing_px);
+  section.read("robust_scale_px", &r.robust_scale_px);
+  section.read("roi_margin_px", &r.roi_margin_px);
+  section.read("reverse_term_weight", &r.reverse_term_weight);
+  section.read("reverse_band_px", &r.reverse_band_px);
+  section.read("max_translation_from_start_m", &r.max_translation_from_start_m);
+  section.read("max_rotation_from_start_rad", &r.max_rotation_from_start_rad);
+  section.read("converged_translation_m", &r.converged_translation_m);
+  section.read("converged_rotation_rad", &r.converged_rotation_rad);
+  const YamlSection edges = section.child("edges");
+  edges.allowOnly({"window_low_percentile", "window_high_percentile", "clahe", "clahe_clip_limit",
+                   "blur_sigma_px", "canny_low", "canny_high", "auto_high_fraction",
+                   "auto_low_ratio", "max_distance_px"});
+  edges.read("window_low_percentile", &r.edges.window_low_percentile);
+  edges.read("window_high_percentile", &r.edges.window_high_percentile);
+  edges.read("clahe", &r.edges.clahe);
+  edges.read("clahe_clip_limit", &r.edges.clahe_clip_limit);
+  edges.read("blur_sigma_px", &r.edges.blur_sigma_px);
+  edges.read("canny_low", &r.edges.canny_low);
+  edges.read("canny_high", &r.edges.canny_high);
+  edges.read("auto_high_fraction", &r.edges.auto_high_fraction);
+  edges.read("auto_low_ratio", &r.edges.auto_low_ratio);
+  edges.read("max_distance_px", &r.edges.max_distance_px);
+  try {
+    r.validate();
+  } catch (const InputError& e) {
+    throw InputError(context + ": " + e.what());
+  }
+  return r;
+}
+
 }  // namespace
 
 const BoneConfig* TrialConfig::findBone(const std::string& name) const {
@@ -104,6 +147,11 @@ TrialConfig loadTrialConfig(const std::string& path) {
       bone.initial_pose = geometry::makePose(rotation, Eigen::Vector3d(p[0], p[1], p[2]));
     }
     config.bones.push_back(std::move(bone));
+  }
+
+  if (root["registration"]) {
+    config.registration =
+        readRegistrationSettings(root["registration"], "trial config '" + path + "' registration");
   }
 
   if (const YAML::Node joints = root["joints"]) {

@@ -7,53 +7,11 @@
 
 namespace fluoro_tracker {
 namespace sim {
-namespace {
-
-class Reader {
- public:
-  Reader(const YAML::Node& node, std::string context) : node_(node), context_(std::move(context)) {
-    if (node_ && !node_.IsMap()) throw InputError(context_ + " must be a map");
-  }
-
-  template <typename T>
-  void read(const std::string& key, T* value) const {
-    if (!node_) return;
-    const YAML::Node v = node_[key];
-    if (!v) return;
-    try {
-      *value = v.as<T>();
-    } catch (const YAML::Exception&) {
-      throw InputError(context_ + "." + key + " (line " + std::to_string(v.Mark().line + 1) +
-                       ") has the wrong type");
-    }
-  }
-
-  Reader child(const std::string& key) const {
-    return Reader(node_ ? node_[key] : YAML::Node(), context_ + "." + key);
-  }
-
-  // Rejects keys this reader does not know, so a typo is not silently ignored.
-  void allowOnly(std::initializer_list<const char*> keys) const {
-    if (!node_) return;
-    for (const auto& entry : node_) {
-      const std::string key = entry.first.as<std::string>();
-      bool known = false;
-      for (const char* k : keys) known = known || key == k;
-      if (!known) throw InputError(context_ + ": unknown key '" + key + "'");
-    }
-  }
-
- private:
-  YAML::Node node_;
-  std::string context_;
-};
-
-}  // namespace
 
 TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   const YAML::Node root = io::loadYamlFile(path, "simulator settings");
   TrialSimulatorSettings s;
-  const Reader r(root, "simulator settings '" + path + "'");
+  const io::YamlSection r(root, "simulator settings '" + path + "'");
   r.allowOnly({"image_width", "image_height", "principal_distance_mm", "pixel_spacing_mm",
                "source_to_joint_mm", "views", "view_separation_deg", "view_yaw_deg",
                "view_roll_deg", "femoral_material", "tray_material", "insert_material", "anatomy",
@@ -74,7 +32,7 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   r.read("seed", &s.seed);
   r.read("start_stamp_s", &s.start_stamp_s);
 
-  const Reader m = r.child("motion");
+  const io::YamlSection m = r.child("motion");
   m.allowOnly({"frames", "frame_rate_hz", "start_flexion_deg", "max_flexion_deg",
                "internal_rotation_at_max_deg", "rollback_at_max_mm", "adduction_amplitude_deg",
                "shank_inclination_ratio"});
@@ -87,7 +45,7 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   m.read("adduction_amplitude_deg", &s.motion.adduction_amplitude_deg);
   m.read("shank_inclination_ratio", &s.motion.shank_inclination_ratio);
 
-  const Reader d = r.child("detector");
+  const io::YamlSection d = r.child("detector");
   d.allowOnly({"photons_per_pixel", "blur_sigma_px", "scatter_strength", "scatter_sigma_mm",
                "window_max_attenuation", "window_min_attenuation", "implants_bright", "bit_depth",
                "collimator_radius_fraction", "collimator_attenuation"});
@@ -102,7 +60,7 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   d.read("collimator_radius_fraction", &s.detector.collimator_radius_fraction);
   d.read("collimator_attenuation", &s.detector.collimator_attenuation);
 
-  const Reader i = r.child("implants");
+  const io::YamlSection i = r.child("implants");
   i.allowOnly({"width_mm", "distal_radius_mm", "posterior_radius_mm", "lateral_condyle_offset_mm",
                "tray_ap_mm", "tray_ml_mm", "insert_thickness_mm", "dish_depth_mm"});
   i.read("width_mm", &s.implants.width_mm);

@@ -100,7 +100,7 @@ int main(int argc, char** argv) {
       meshes.push_back(geometry::Mesh::load(bone.mesh, load));
       bones.push_back({bone.name, std::make_shared<imaging::SilhouetteModel>(meshes.back()), 1.0});
     }
-    const registration::Registrar registrar(bones, registration::RegistrationSettings());
+    const registration::Registrar registrar(bones, config.registration);
 
     // Starting poses: per-frame guesses, or the trial's initial poses then the previous frames.
     std::map<std::pair<int, std::string>, Pose> guesses;

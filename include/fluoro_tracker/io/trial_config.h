@@ -6,6 +6,7 @@
 
 #include "fluoro_tracker/geometry/length_unit.h"
 #include "fluoro_tracker/geometry/pose.h"
+#include "fluoro_tracker/registration/registrar.h"
 
 namespace fluoro_tracker {
 namespace io {
@@ -36,6 +37,7 @@ struct TrialConfig {
   std::string fixed_frame;  // empty: the first view's optical frame
   std::vector<BoneConfig> bones;
   std::vector<JointConfig> joints;
+  registration::RegistrationSettings registration;  // the optional `registration:` section
 
   const BoneConfig* findBone(const std::string& name) const;
 };

@@ -103,3 +103,53 @@ TEST(TrialConfig, BadYamlNamesFileKeyAndLine) {
                           "parent: femur, child: tibia}\n");
   EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("joint.yaml")), "bone 'tibia' is not listed");
 }
+
+TEST(TrialConfig, RegistrationSectionFillsTheSettingsAndRejectsTypos) {
+  TempDir dir;
+  test_support::writeText(dir.file("trial.yaml"), R"(
+bones:
+  - {name: femur, mesh: f.stl}
+registration:
+  scales: [0.5, 1.0]
+  outer_iterations: 6
+  robust_scale_px: 3.0
+  edges: {clahe: true, canny_high: 60}
+)");
+  const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
+  EXPECT_EQ(c.registration.scales, (std::vector<double>{0.5, 1.0}));
+  EXPECT_EQ(c.registration.outer_iterations, 6);
+  EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, 3.0);
+  EXPECT_TRUE(c.registration.edges.clahe);
+  EXPECT_DOUBLE_EQ(c.registration.edges.canny_high, 60.0);
+  EXPECT_EQ(c.registration.solver_iterations,
+            registration::RegistrationSettings().solver_iterations);
+
+  test_support::writeText(
+      dir.file("typo.yaml"),
+      "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {outer_iteration: 3}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("typo.yaml")), "unknown key 'outer_iteration'");
+  test_support::writeText(
+      dir.file("bad.yaml"),
+      "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {scales: [2.0]}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad.yaml")), "scales must be in (0, 1]");
+}
+
+TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
+  const io::TrialConfig c =
+      io::loadTrialConfig(std::string(FLUORO_SOURCE_DIR) + "/config/trial_template.yaml");
+  ASSERT_EQ(c.bones.size(), 2u);
+  EXPECT_FALSE(c.bones[1].articular_mesh.empty());
+  const registration::RegistrationSettings d;
+  EXPECT_EQ(c.registration.scales, d.scales);
+  EXPECT_EQ(c.registration.outer_iterations, d.outer_iterations);
+  EXPECT_EQ(c.registration.solver_iterations, d.solver_iterations);
+  EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, d.robust_scale_px);
+  EXPECT_DOUBLE_EQ(c.registration.roi_margin_px, d.roi_margin_px);
+  EXPECT_DOUBLE_EQ(c.registration.reverse_term_weight, d.reverse_term_weight);
+  EXPECT_DOUBLE_EQ(c.registration.reverse_band_px, d.reverse_band_px);
+  EXPECT_DOUBLE_EQ(c.registration.max_translation_from_start_m, d.max_translation_from_start_m);
+  EXPECT_DOUBLE_EQ(c.registration.converged_rotation_rad, d.converged_rotation_rad);
+  EXPECT_DOUBLE_EQ(c.registration.edges.max_distance_px, d.edges.max_distance_px);
+  EXPECT_DOUBLE_EQ(c.registration.edges.auto_high_fraction, d.edges.auto_high_fraction);
+  EXPECT_EQ(c.registration.edges.clahe, d.edges.clahe);
+}

@@ -115,6 +115,41 @@ TEST(TrackBag, TracksABiplaneTrialInTheLabFrame) {
   }
 }
 
+TEST(TrackBag, InitCsvRegistersEachFrameFromItsOwnGuess) {
+  Trial trial(1, 4);
+  // Guesses: the truth moved 1.5 mm in-plane and turned 2 deg, frame by frame.
+  std::vector<io::PoseRecord> guesses = trial.truth;
+  for (auto& g : guesses) {
+    g.pose.translation() += Eigen::Vector3d(0.0015, -0.001, 0.0);
+    g.pose.linear() = g.pose.linear() * geometry::rotationZ(geometry::degToRad(2.0));
+  }
+  io::writePosesCsv(trial.dir.file("guesses.csv"), guesses);
+  std::string output;
+  ASSERT_EQ(
+      runTrackBag("--config " + trial.dir.file("trial.yaml") + " --bag " +
+                      trial.dir.file("trial.bag") + " --poses-csv " + trial.dir.file("poses.csv") +
+                      " --init-csv " + trial.dir.file("guesses.csv"),
+                  &output),
+      0)
+      << output;
+  const auto poses = io::readPosesCsv(trial.dir.file("poses.csv"));
+  ASSERT_EQ(poses.size(), trial.truth.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const Eigen::Vector3d error = poses[i].pose.translation() - trial.truth[i].pose.translation();
+    EXPECT_LT(std::hypot(error.x(), error.y()), 0.001)
+        << poses[i].bone << " frame " << poses[i].frame;
+  }
+  // A guess file without frame 3 is an error that names the bone and frame.
+  guesses.resize(6);
+  io::writePosesCsv(trial.dir.file("short.csv"), guesses);
+  EXPECT_NE(runTrackBag("--config " + trial.dir.file("trial.yaml") + " --bag " +
+                            trial.dir.file("trial.bag") + " --poses-csv " +
+                            trial.dir.file("p2.csv") + " --init-csv " + trial.dir.file("short.csv"),
+                        &output),
+            0);
+  EXPECT_NE(output.find("no pose for bone 'femur' at frame 3"), std::string::npos) << output;
+}
+
 TEST(TrackBag, BadInputGivesAClearErrorAndNonZeroExit) {
   Trial trial(1, 2);
   std::string output;
