@@ -19,6 +19,7 @@
 #include <boost/program_options.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "fluoro_tracker/imaging/projection_similarity.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/jointtrack_calibration.h"
 #include "fluoro_tracker/io/jts_file.h"
@@ -78,8 +79,18 @@ struct Tally {
   Eigen::Matrix<double, 6, 1> sum_squares = Eigen::Matrix<double, 6, 1>::Zero();
   Eigen::Matrix<double, 6, 1> sum = Eigen::Matrix<double, 6, 1>::Zero();
   int samples = 0;  // bone-frames in successful frames
+  // Projection similarity (grey + edge NCC, view 1) at the result and at the truth.
+  std::vector<double> similarity_result;
+  std::vector<double> similarity_truth;
+  int failed_frames_scored_below_truth = 0;
   // Failures per bone and criterion: in-plane translation, rotation about X, Y, Z.
   std::vector<std::array<int, 4>> failures;
+
+  void addSimilarity(double at_result, double at_truth, bool success) {
+    similarity_result.push_back(at_result);
+    similarity_truth.push_back(at_truth);
+    if (!success && at_result < at_truth) ++failed_frames_scored_below_truth;
+  }
 
   void add(const std::vector<PoseError>& errors, double ms, int cost_evaluations) {
     ++frames;
@@ -123,6 +134,14 @@ struct Tally {
       std::cout << "  bone " << b << " out of bounds in frames: in-plane " << failures[b][0]
                 << ", rx " << failures[b][1] << ", ry " << failures[b][2] << ", rz "
                 << failures[b][3] << "\n";
+    }
+    if (!similarity_result.empty()) {
+      std::cout << std::setprecision(3) << "  projection similarity (grey + edge NCC): median "
+                << percentile(similarity_result, 0.5) << " at the result, "
+                << percentile(similarity_truth, 0.5)
+                << " at the truth; failed frames scoring below "
+                << "their truth: " << failed_frames_scored_below_truth << "/" << frames - successes
+                << "\n";
     }
     std::cout << std::setprecision(1) << "  time per frame: median "
               << percentile(milliseconds, 0.5) << " ms, p95 " << percentile(milliseconds, 0.95)
@@ -191,6 +210,12 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
         errors.push_back(poseError(result.poses[b], truth[b], camera_from_fixed));
       }
       tally.add(errors, ms, result.cost_evaluations);
+      const imaging::EdgeMap map(frame.images[0], simulator.views()[0].camera, settings.edges);
+      const std::vector<const geometry::Mesh*> meshes = {&implants.femoral_component,
+                                                         &implants.tibial_tray};
+      tally.addSimilarity(imaging::projectionSimilarity(map, meshes, result.poses).total(),
+                          imaging::projectionSimilarity(map, meshes, truth).total(),
+                          std::all_of(errors.begin(), errors.end(), withinCriteria));
     }
   }
   tally.print("simulated " + std::string(views == 1 ? "single-plane" : "bi-plane") +
