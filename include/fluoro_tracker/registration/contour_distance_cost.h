@@ -3,7 +3,6 @@
 #include <vector>
 
 #include <ceres/cost_function.h>
-#include <ceres/sized_cost_function.h>
 
 #include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/imaging/edge_map.h"
