@@ -17,22 +17,31 @@ namespace fluoro_tracker {
 namespace registration {
 namespace {
 
+// Extends `box` by the projections of the corners of the bone's bounding box at `pose`;
+// false if a corner lies closer than `min_depth_m` to the view's source plane (or behind it).
+bool extendByProjectedBounds(const geometry::XrayCamera& camera, const BoneModel& bone,
+                             const geometry::Pose& pose, double min_depth_m,
+                             Eigen::AlignedBox2d* box) {
+  const geometry::Pose camera_from_bone = camera.worldFromCamera().inverse() * pose;
+  const Eigen::AlignedBox3d bounds = bone.silhouette->mesh().bounds();
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3d p =
+        camera_from_bone * bounds.corner(static_cast<Eigen::AlignedBox3d::CornerType>(corner));
+    Eigen::Vector2d px;
+    if (p.z() < min_depth_m || !camera.project(p, &px)) return false;
+    box->extend(px);
+  }
+  return true;
+}
+
 // Pixel rectangle of a view covering every bone's projected bounding box, plus a margin.
 cv::Rect regionOfInterest(const geometry::XrayCamera& camera, const std::vector<BoneModel>& bones,
                           const std::vector<geometry::Pose>& poses, double margin) {
-  const geometry::Pose camera_from_fixed = camera.worldFromCamera().inverse();
   Eigen::AlignedBox2d box;
   for (std::size_t b = 0; b < bones.size(); ++b) {
-    const Eigen::AlignedBox3d bounds = bones[b].silhouette->mesh().bounds();
-    for (int corner = 0; corner < 8; ++corner) {
-      const Eigen::Vector3d p = camera_from_fixed * poses[b] *
-                                bounds.corner(static_cast<Eigen::AlignedBox3d::CornerType>(corner));
-      Eigen::Vector2d px;
-      if (!camera.project(p, &px)) {
-        throw InputError("registration: bone '" + bones[b].name +
-                         "' lies behind the X-ray source of " + camera.frameId());
-      }
-      box.extend(px);
+    if (!extendByProjectedBounds(camera, bones[b], poses[b], 0.0, &box)) {
+      throw InputError("registration: bone '" + bones[b].name +
+                       "' lies behind the X-ray source of " + camera.frameId());
     }
   }
   const int x0 = static_cast<int>(std::floor(box.min().x() - margin));
@@ -45,17 +54,9 @@ cv::Rect regionOfInterest(const geometry::XrayCamera& camera, const std::vector<
 // True if the bone's bounding box lies in front of every view's source and overlaps its image.
 bool isViewable(const BoneModel& bone, const geometry::Pose& pose,
                 const std::vector<ViewImage>& views) {
-  const Eigen::AlignedBox3d bounds = bone.silhouette->mesh().bounds();
   for (const auto& view : views) {
-    const geometry::Pose camera_from_bone = view.camera.worldFromCamera().inverse() * pose;
     Eigen::AlignedBox2d box;
-    for (int corner = 0; corner < 8; ++corner) {
-      const Eigen::Vector3d p =
-          camera_from_bone * bounds.corner(static_cast<Eigen::AlignedBox3d::CornerType>(corner));
-      Eigen::Vector2d px;
-      if (p.z() < 0.01 || !view.camera.project(p, &px)) return false;
-      box.extend(px);
-    }
+    if (!extendByProjectedBounds(view.camera, bone, pose, 0.01, &box)) return false;
     const Eigen::AlignedBox2d image(Eigen::Vector2d(0.0, 0.0),
                                     Eigen::Vector2d(view.camera.width(), view.camera.height()));
     if (!box.intersects(image)) return false;
@@ -145,6 +146,7 @@ Registrar::Registrar(std::vector<BoneModel> bones, RegistrationSettings settings
   settings_.validate();
   for (const auto& bone : bones_) {
     if (!bone.silhouette) throw InputError("registration: bone '" + bone.name + "' has no model");
+    centroids_.push_back(bone.silhouette->mesh().volumeCentroid());
   }
 }
 
@@ -189,7 +191,7 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
       for (std::size_t b = 0; b < bones_.size(); ++b) {
         if (result.diverged[b]) continue;
         const geometry::Pose& pose = result.poses[b];
-        centres[b] = pose * bones_[b].silhouette->mesh().volumeCentroid();
+        centres[b] = pose * centroids_[b];
         int points_in_views = 0;
         for (std::size_t v = 0; v < views.size(); ++v) {
           const geometry::XrayCamera& camera = maps[v].camera();

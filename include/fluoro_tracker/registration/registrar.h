@@ -81,6 +81,7 @@ class Registrar {
  private:
   std::vector<BoneModel> bones_;
   RegistrationSettings settings_;
+  std::vector<Eigen::Vector3d> centroids_;  // per bone, mesh frame: the rotation centres
 };
 
 }  // namespace registration
