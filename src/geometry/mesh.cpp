@@ -252,10 +252,9 @@ MeshTopology Mesh::topology() const {
       ++result.degenerate_triangles;
     }
     for (int k = 0; k < 3; ++k) {
-      const std::uint32_t a = static_cast<std::uint32_t>(t[k]);
-      const std::uint32_t b = static_cast<std::uint32_t>(t[(k + 1) % 3]);
-      const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
-      EdgeUse& use = edges[key];
+      const int a = t[k];
+      const int b = t[(k + 1) % 3];
+      EdgeUse& use = edges[undirectedEdgeKey(a, b)];
       if (a < b) {
         ++use.forward;
       } else {

@@ -26,8 +26,7 @@ SilhouetteModel::SilhouetteModel(const geometry::Mesh& mesh)
     for (int k = 0; k < 3; ++k) {
       const int a = triangles[f][k];
       const int b = triangles[f][(k + 1) % 3];
-      const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) |
-                                static_cast<std::uint32_t>(std::max(a, b));
+      const std::uint64_t key = geometry::undirectedEdgeKey(a, b);
       auto it = first_face.find(key);
       if (it == first_face.end()) {
         first_face.emplace(key, f);

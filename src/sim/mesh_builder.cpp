@@ -11,12 +11,6 @@ namespace {
 using geometry::Mesh;
 using Tri = Mesh::Triangle;
 
-std::uint64_t edgeKey(int a, int b) {
-  const auto lo = static_cast<std::uint64_t>(std::min(a, b));
-  const auto hi = static_cast<std::uint64_t>(std::max(a, b));
-  return (lo << 32) | hi;
-}
-
 // Signed volume of the triangles listed.
 double componentVolume(const std::vector<Eigen::Vector3d>& v, const std::vector<Tri>& t,
                        const std::vector<int>& members) {
@@ -33,7 +27,8 @@ void orientOutward(Mesh* mesh) {
   std::unordered_map<std::uint64_t, std::vector<int>> edge_triangles;
   for (int i = 0; i < static_cast<int>(triangles.size()); ++i) {
     for (int k = 0; k < 3; ++k)
-      edge_triangles[edgeKey(triangles[i][k], triangles[i][(k + 1) % 3])].push_back(i);
+      edge_triangles[geometry::undirectedEdgeKey(triangles[i][k], triangles[i][(k + 1) % 3])]
+          .push_back(i);
   }
   const auto hasDirectedEdge = [](const Tri& t, int a, int b) {
     for (int k = 0; k < 3; ++k) {
@@ -54,7 +49,7 @@ void orientOutward(Mesh* mesh) {
       for (int k = 0; k < 3; ++k) {
         const int a = triangles[i][k];
         const int b = triangles[i][(k + 1) % 3];
-        for (int j : edge_triangles[edgeKey(a, b)]) {
+        for (int j : edge_triangles[geometry::undirectedEdgeKey(a, b)]) {
           if (visited[j]) continue;
           // A consistently wound neighbour traverses the shared edge as b -> a.
           if (hasDirectedEdge(triangles[j], a, b)) std::swap(triangles[j][1], triangles[j][2]);

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <cstdint>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <string>
@@ -10,6 +12,14 @@
 
 namespace fluoro_tracker {
 namespace geometry {
+
+// Key of the undirected edge between vertex indices a and b (the same for a-b and b-a), for
+// hashing edges while walking triangles.
+inline std::uint64_t undirectedEdgeKey(int a, int b) {
+  const auto lo = static_cast<std::uint64_t>(static_cast<std::uint32_t>(a < b ? a : b));
+  const auto hi = static_cast<std::uint64_t>(static_cast<std::uint32_t>(a < b ? b : a));
+  return (lo << 32) | hi;
+}
 
 // Edge-based topology summary of a triangle mesh.
 struct MeshTopology {
