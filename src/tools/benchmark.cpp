@@ -23,6 +23,7 @@
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/jointtrack_calibration.h"
 #include "fluoro_tracker/io/jts_file.h"
+#include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/registration/registrar.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
 
@@ -32,25 +33,8 @@ using geometry::Pose;
 
 namespace {
 
-struct PoseError {
-  Eigen::Vector3d translation_mm;  // x, y in-plane, z along the beam (view 1's optical frame)
-  Eigen::Vector3d rotation_deg;    // about the bone's X, Y, Z axes
-};
-
-PoseError poseError(const Pose& estimate, const Pose& truth, const Pose& camera_from_fixed) {
-  PoseError e;
-  e.translation_mm =
-      1e3 * camera_from_fixed.linear() * (estimate.translation() - truth.translation());
-  const Eigen::AngleAxisd delta(truth.linear().transpose() * estimate.linear());
-  e.rotation_deg = geometry::radToDeg(delta.angle()) * delta.axis();
-  return e;
-}
-
-bool withinCriteria(const PoseError& e) {
-  return std::abs(e.translation_mm.x()) <= 1.0 && std::abs(e.translation_mm.y()) <= 1.0 &&
-         std::abs(e.rotation_deg.x()) <= 2.0 && std::abs(e.rotation_deg.z()) <= 2.0 &&
-         std::abs(e.rotation_deg.y()) <= 3.0;
-}
+using registration::PoseError;
+using registration::poseError;
 
 Pose perturb(const Pose& truth, const Pose& camera_from_fixed, std::mt19937_64* rng,
              double in_plane_mm, double out_of_plane_mm, double rotation_deg) {
@@ -105,7 +89,7 @@ struct Tally {
       if (std::abs(e.rotation_deg.y()) > 3.0) ++failures[b][2];
       if (std::abs(e.rotation_deg.z()) > 2.0) ++failures[b][3];
     }
-    const bool ok = std::all_of(errors.begin(), errors.end(), withinCriteria);
+    const bool ok = std::all_of(errors.begin(), errors.end(), registration::meetsSuccessCriterion);
     if (!ok) return;
     ++successes;
     for (const auto& e : errors) {
@@ -213,9 +197,10 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
       const imaging::EdgeMap map(frame.images[0], simulator.views()[0].camera, settings.edges);
       const std::vector<const geometry::Mesh*> meshes = {&implants.femoral_component,
                                                          &implants.tibial_tray};
-      tally.addSimilarity(imaging::projectionSimilarity(map, meshes, result.poses).total(),
-                          imaging::projectionSimilarity(map, meshes, truth).total(),
-                          std::all_of(errors.begin(), errors.end(), withinCriteria));
+      tally.addSimilarity(
+          imaging::projectionSimilarity(map, meshes, result.poses).total(),
+          imaging::projectionSimilarity(map, meshes, truth).total(),
+          std::all_of(errors.begin(), errors.end(), registration::meetsSuccessCriterion));
     }
   }
   tally.print("simulated " + std::string(views == 1 ? "single-plane" : "bi-plane") +

@@ -16,6 +16,7 @@
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/poses_csv.h"
 #include "fluoro_tracker/io/trial_config.h"
+#include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/registration/registrar.h"
 #include "fluoro_tracker/ros/bag_frame_reader.h"
 
@@ -182,14 +183,12 @@ int main(int argc, char** argv) {
             for (std::size_t b = 0; b < bones.size(); ++b) {
               const auto it = truth.find({frame.index, bones[b].name});
               if (it == truth.end()) continue;
-              Eigen::Matrix<double, 6, 1> e;
-              e.head<3>() = 1e3 * camera_from_fixed.linear() *
-                            (result.poses[b].translation() - it->second.translation());
-              const Eigen::AngleAxisd d(it->second.linear().transpose() * result.poses[b].linear());
-              e.tail<3>() = geometry::radToDeg(d.angle()) * d.axis();
-              accuracy.errors.push_back(e);
-              within = within && std::abs(e[0]) <= 1.0 && std::abs(e[1]) <= 1.0 &&
-                       std::abs(e[3]) <= 2.0 && std::abs(e[4]) <= 3.0 && std::abs(e[5]) <= 2.0;
+              const registration::PoseError e =
+                  registration::poseError(result.poses[b], it->second, camera_from_fixed);
+              Eigen::Matrix<double, 6, 1> dofs;
+              dofs << e.translation_mm, e.rotation_deg;
+              accuracy.errors.push_back(dofs);
+              within = within && registration::meetsSuccessCriterion(e);
             }
             ++accuracy.frames;
             accuracy.frames_within += within ? 1 : 0;

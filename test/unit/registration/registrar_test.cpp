@@ -4,6 +4,7 @@
 
 #include "../test_support.h"
 #include "fluoro_tracker/registration/contour_distance_cost.h"
+#include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/registration/pose_increment.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
 
@@ -174,4 +175,27 @@ TEST(Registrar, BadInputsNameTheProblem) {
   nan_pose.translation().x() = std::nan("");
   EXPECT_THROW_WITH(registrar.solve({{scene.frame.images[0], camera}}, {nan_pose, truth[1]}),
                     "not a finite");
+}
+
+TEST(PoseError, MeasuresInTheViewAndAboutTheBoneAxesAndAppliesTheCriterion) {
+  const Pose truth = geometry::makePose(geometry::rotationZ(0.4), Eigen::Vector3d(0.01, 0.02, 1.0));
+  // A view turned a quarter turn about its y axis: fixed x is the view's -z (along the beam).
+  const Pose camera_from_fixed =
+      geometry::makePose(geometry::rotationY(M_PI / 2), Eigen::Vector3d::Zero());
+  Pose estimate = truth;
+  estimate.translation() += Eigen::Vector3d(0.002, 0.0005, 0.0);
+  estimate.linear() = truth.linear() * geometry::rotationY(geometry::degToRad(2.5));
+  const auto e = registration::poseError(estimate, truth, camera_from_fixed);
+  EXPECT_TRUE(e.translation_mm.isApprox(Eigen::Vector3d(0.0, 0.5, -2.0), 1e-9));
+  EXPECT_TRUE(e.rotation_deg.isApprox(Eigen::Vector3d(0.0, 2.5, 0.0), 1e-9));
+  EXPECT_TRUE(registration::meetsSuccessCriterion(e));  // 2 mm along the beam, 2.5 deg about Y
+  auto worse = e;
+  worse.rotation_deg.y() = 3.1;
+  EXPECT_FALSE(registration::meetsSuccessCriterion(worse));
+  worse = e;
+  worse.rotation_deg.x() = 2.1;
+  EXPECT_FALSE(registration::meetsSuccessCriterion(worse));
+  worse = e;
+  worse.translation_mm.x() = -1.1;
+  EXPECT_FALSE(registration::meetsSuccessCriterion(worse));
 }
