@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/registration/contact_cost.h"
 #include "fluoro_tracker/registration/contour_distance_cost.h"
 #include "fluoro_tracker/registration/edge_to_contour_cost.h"
 #include "fluoro_tracker/registration/pose_increment.h"
@@ -141,12 +142,21 @@ void RegistrationSettings::validate() const {
   edges.validate();
 }
 
-Registrar::Registrar(std::vector<BoneModel> bones, RegistrationSettings settings)
-    : bones_(std::move(bones)), settings_(std::move(settings)) {
+Registrar::Registrar(std::vector<BoneModel> bones, RegistrationSettings settings,
+                     std::vector<ContactPair> contacts)
+    : bones_(std::move(bones)), settings_(std::move(settings)), contacts_(std::move(contacts)) {
   settings_.validate();
   for (const auto& bone : bones_) {
     if (!bone.silhouette) throw InputError("registration: bone '" + bone.name + "' has no model");
     centroids_.push_back(bone.silhouette->mesh().volumeCentroid());
+  }
+  const int bone_count = static_cast<int>(bones_.size());
+  for (const auto& pair : contacts_) {
+    if (pair.parent < 0 || pair.parent >= bone_count || pair.child < 0 ||
+        pair.child >= bone_count || pair.parent == pair.child || !pair.contact) {
+      throw InputError("registration: contact of joint '" + pair.joint +
+                       "' needs two different bones of this registrar and a contact model");
+    }
   }
 }
 
@@ -220,6 +230,17 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
         }
         result.contour_points[b] = points_in_views;
       }
+      for (const auto& pair : contacts_) {
+        if (result.diverged[pair.parent] || result.diverged[pair.child]) continue;
+        if (!problem.HasParameterBlock(increments[pair.parent].data()) ||
+            !problem.HasParameterBlock(increments[pair.child].data())) {
+          continue;
+        }
+        problem.AddResidualBlock(
+            new ContactCost(pair.contact.get(), result.poses[pair.parent], centres[pair.parent],
+                            result.poses[pair.child], centres[pair.child]),
+            nullptr, increments[pair.parent].data(), increments[pair.child].data());
+      }
       if (problem.NumResidualBlocks() == 0) break;
 
       ceres::Solver::Options options;
@@ -260,6 +281,10 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
         break;
       }
     }
+  }
+  for (const auto& pair : contacts_) {
+    result.contacts.push_back(
+        pair.contact->figures(result.poses[pair.parent], result.poses[pair.child], true));
   }
   return result;
 }

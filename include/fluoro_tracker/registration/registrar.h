@@ -6,6 +6,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "fluoro_tracker/constraints/articular_contact.h"
 #include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/geometry/xray_camera.h"
 #include "fluoro_tracker/imaging/edge_map.h"
@@ -52,6 +53,14 @@ struct BoneModel {
   double image_weight = 1.0;
 };
 
+// Articular contact between two of the registrar's bones (indices into its bone list).
+struct ContactPair {
+  std::string joint;
+  int parent = -1;
+  int child = -1;
+  std::shared_ptr<const constraints::ArticularContact> contact;
+};
+
 struct RegistrationResult {
   std::vector<geometry::Pose> poses;  // per bone, in the fixed frame
   double final_cost = 0.0;
@@ -63,16 +72,23 @@ struct RegistrationResult {
   // outside the image) or beyond the plausible distance from its start; it was kept at its
   // last valid pose and not moved further.
   std::vector<bool> diverged;
+  // Per contact pair, at the final poses.
+  std::vector<constraints::ContactFigures> contacts;
 };
 
 // Registers all bones of one frame jointly, in any number of views, from starting poses: the
-// dissertation's contour-distance metric minimised with Ceres, coarse to fine.
+// dissertation's contour-distance metric minimised with Ceres, coarse to fine, plus articular
+// contact penalties between pairs of bones (dissertation ch. 3), whose two bones are then
+// solved together.
 class Registrar {
  public:
-  Registrar(std::vector<BoneModel> bones, RegistrationSettings settings);
+  // Throws InputError for a bone without a model or a contact pair naming a missing bone.
+  Registrar(std::vector<BoneModel> bones, RegistrationSettings settings,
+            std::vector<ContactPair> contacts = {});
 
   const std::vector<BoneModel>& bones() const { return bones_; }
   const RegistrationSettings& settings() const { return settings_; }
+  const std::vector<ContactPair>& contacts() const { return contacts_; }
 
   // Throws InputError for a wrong number of poses, no views, non-finite poses, or bad images.
   RegistrationResult solve(const std::vector<ViewImage>& views,
@@ -81,6 +97,7 @@ class Registrar {
  private:
   std::vector<BoneModel> bones_;
   RegistrationSettings settings_;
+  std::vector<ContactPair> contacts_;
   std::vector<Eigen::Vector3d> centroids_;  // per bone, mesh frame: the rotation centres
 };
 

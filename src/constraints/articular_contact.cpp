@@ -1,0 +1,260 @@
+// The only translation unit that runs FCL queries between articular surfaces.
+#include "fluoro_tracker/constraints/articular_contact.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <ceres/jet.h>
+#include <fcl/narrowphase/collision.h>
+#include <fcl/narrowphase/distance.h>
+
+#include "fluoro_tracker/input_error.h"
+
+namespace fluoro_tracker {
+namespace constraints {
+namespace {
+
+constexpr double kMillimetresPerMetre = 1000.0;
+// Smooths measure^exponent at 0 (mm units): the derivative stays finite.
+constexpr double kPenaltyFloor = 1e-6;
+
+// Integrals over a triangle of area `area` of the positive part of a linear function with
+// vertex values q: the area where q > 0, the integral of q and of q^2 there. Closed forms: the
+// region is the whole triangle, a corner triangle, or the triangle minus a corner triangle.
+template <typename T>
+void positivePartIntegrals(double area, const T q[3], T integrals[3]) {
+  const int positive = (q[0] > 0.0) + (q[1] > 0.0) + (q[2] > 0.0);
+  if (positive == 0) {
+    integrals[0] = integrals[1] = integrals[2] = T(0.0);
+    return;
+  }
+  const T full0 = T(area);
+  const T full1 = T(area / 3.0) * (q[0] + q[1] + q[2]);
+  const T full2 = T(area / 6.0) * (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[0] * q[1] +
+                                   q[1] * q[2] + q[2] * q[0]);
+  if (positive == 3) {
+    integrals[0] = full0;
+    integrals[1] = full1;
+    integrals[2] = full2;
+    return;
+  }
+  // The corner vertex k is the odd one out; q crosses 0 at fractions tj, tl along its edges.
+  int k = 0;
+  for (int i = 0; i < 3; ++i) {
+    if ((q[i] > 0.0) == (positive == 1)) k = i;
+  }
+  const T& qk = q[k];
+  const T& qj = q[(k + 1) % 3];
+  const T& ql = q[(k + 2) % 3];
+  const T corner_area = T(area) * (qk / (qk - qj)) * (qk / (qk - ql));
+  const T corner1 = corner_area * qk / 3.0;
+  const T corner2 = corner_area * qk * qk / 6.0;
+  if (positive == 1) {
+    integrals[0] = corner_area;
+    integrals[1] = corner1;
+    integrals[2] = corner2;
+  } else {
+    integrals[0] = full0 - corner_area;
+    integrals[1] = full1 - corner1;
+    integrals[2] = full2 - corner2;
+  }
+}
+
+bool inRegion(const ContactRegion& region, const Eigen::Vector3d& centroid,
+              const Eigen::Vector3d& normal) {
+  if (!region.box.isEmpty() && !region.box.contains(centroid)) return false;
+  if (region.normal.squaredNorm() > 0.0) {
+    const double cos_limit = std::cos(region.max_angle_deg * M_PI / 180.0);
+    if (normal.dot(region.normal.normalized()) < cos_limit) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+ContactMeasure contactMeasureFromName(const std::string& name) {
+  for (ContactMeasure m : {ContactMeasure::kPenetrationDepth, ContactMeasure::kPenetrationArea,
+                           ContactMeasure::kQuasiVolume, ContactMeasure::kElasticEnergy,
+                           ContactMeasure::kSeparation}) {
+    if (contactMeasureName(m) == name) return m;
+  }
+  throw InputError("contact measure '" + name +
+                   "' is not one of penetration_depth, penetration_area, quasi_volume, "
+                   "elastic_energy, separation");
+}
+
+std::string contactMeasureName(ContactMeasure measure) {
+  switch (measure) {
+    case ContactMeasure::kPenetrationDepth:
+      return "penetration_depth";
+    case ContactMeasure::kPenetrationArea:
+      return "penetration_area";
+    case ContactMeasure::kQuasiVolume:
+      return "quasi_volume";
+    case ContactMeasure::kElasticEnergy:
+      return "elastic_energy";
+    case ContactMeasure::kSeparation:
+      return "separation";
+  }
+  return "unknown";
+}
+
+void ContactSettings::validate() const {
+  if (!(dead_band_mm >= 0.0)) throw InputError("contact: dead_band_mm must be >= 0");
+  if (!(exponent > 0.0)) throw InputError("contact: exponent must be > 0");
+  if (!(weight >= 0.0)) throw InputError("contact: weight must be >= 0");
+  if (!(region.max_angle_deg > 0.0 && region.max_angle_deg <= 180.0)) {
+    throw InputError("contact: region max_angle_deg must be in (0, 180]");
+  }
+  grid.validate();
+}
+
+ArticularContact::ArticularContact(const geometry::Mesh& parent_surface,
+                                   const geometry::Mesh& child_surface,
+                                   const ContactSettings& settings)
+    : settings_(settings) {
+  settings_.validate();
+  if (parent_surface.empty()) throw InputError("contact: the parent's surface is empty");
+  if (!child_surface.topology().isClosed()) {
+    throw InputError("contact: the child's articular surface must be closed (" +
+                     child_surface.topology().describe() + ")");
+  }
+  // Sample the parent's surface: the vertices of the triangles in the region, renumbered.
+  const auto normals = parent_surface.faceNormals();
+  const auto& v = parent_surface.vertices();
+  std::vector<int> sample_of_vertex(parent_surface.vertexCount(), -1);
+  for (std::size_t t = 0; t < parent_surface.triangleCount(); ++t) {
+    const auto& tri = parent_surface.triangles()[t];
+    const Eigen::Vector3d centroid = (v[tri[0]] + v[tri[1]] + v[tri[2]]) / 3.0;
+    if (!inRegion(settings_.region, centroid, normals[t])) continue;
+    Triangle triangle;
+    for (int k = 0; k < 3; ++k) {
+      int& s = sample_of_vertex[tri[k]];
+      if (s < 0) {
+        s = static_cast<int>(samples_.size());
+        samples_.push_back(v[tri[k]]);
+      }
+      triangle.sample[k] = s;
+    }
+    triangle.area_mm2 = 0.5 * (v[tri[1]] - v[tri[0]]).cross(v[tri[2]] - v[tri[0]]).norm() *
+                        kMillimetresPerMetre * kMillimetresPerMetre;
+    triangles_.push_back(triangle);
+  }
+  if (triangles_.empty()) throw InputError("contact: the region selects no triangle of the parent");
+  grid_ = std::make_shared<geometry::SignedDistanceGrid>(child_surface, settings_.grid);
+  parent_bvh_ = geometry::buildBvh(parent_surface);
+  child_bvh_ = geometry::buildBvh(child_surface);
+}
+
+double ArticularContact::measure(const double* distances_m, double* d_measure_d_distance) const {
+  const std::size_t n = samples_.size();
+  if (d_measure_d_distance) std::fill(d_measure_d_distance, d_measure_d_distance + n, 0.0);
+  const double band = settings_.dead_band_mm;
+  switch (settings_.measure) {
+    case ContactMeasure::kPenetrationDepth: {
+      std::size_t deepest = 0;
+      for (std::size_t i = 1; i < n; ++i) {
+        if (distances_m[i] < distances_m[deepest]) deepest = i;
+      }
+      const double q = -distances_m[deepest] * kMillimetresPerMetre - band;
+      if (q <= 0.0) return 0.0;
+      if (d_measure_d_distance) d_measure_d_distance[deepest] = -kMillimetresPerMetre;
+      return q;
+    }
+    case ContactMeasure::kSeparation: {
+      std::size_t nearest = 0;
+      for (std::size_t i = 1; i < n; ++i) {
+        if (distances_m[i] < distances_m[nearest]) nearest = i;
+      }
+      const double gap = distances_m[nearest] * kMillimetresPerMetre - band;
+      if (gap <= 0.0) return 0.0;
+      if (d_measure_d_distance) d_measure_d_distance[nearest] = kMillimetresPerMetre;
+      return gap;
+    }
+    case ContactMeasure::kPenetrationArea:
+    case ContactMeasure::kQuasiVolume:
+    case ContactMeasure::kElasticEnergy:
+      break;
+  }
+  const int which = settings_.measure == ContactMeasure::kPenetrationArea ? 0
+                    : settings_.measure == ContactMeasure::kQuasiVolume   ? 1
+                                                                          : 2;
+  const double scale = which == 2 ? 0.5 : 1.0;
+  using Jet = ceres::Jet<double, 3>;
+  double total = 0.0;
+  for (const Triangle& t : triangles_) {
+    double q[3];
+    for (int k = 0; k < 3; ++k) q[k] = -distances_m[t.sample[k]] * kMillimetresPerMetre - band;
+    if (q[0] <= 0.0 && q[1] <= 0.0 && q[2] <= 0.0) continue;
+    if (!d_measure_d_distance) {
+      double integrals[3];
+      positivePartIntegrals(t.area_mm2, q, integrals);
+      total += scale * integrals[which];
+      continue;
+    }
+    Jet qj[3];
+    for (int k = 0; k < 3; ++k) qj[k] = Jet(q[k], k);
+    Jet integrals[3];
+    positivePartIntegrals(t.area_mm2, qj, integrals);
+    total += scale * integrals[which].a;
+    for (int k = 0; k < 3; ++k) {
+      d_measure_d_distance[t.sample[k]] -= scale * integrals[which].v[k] * kMillimetresPerMetre;
+    }
+  }
+  return total;
+}
+
+double ArticularContact::penalty(double measure, double* d_penalty_d_measure) const {
+  const double e = settings_.exponent;
+  const double m = std::max(measure, 0.0) + kPenaltyFloor;
+  if (d_penalty_d_measure) *d_penalty_d_measure = settings_.weight * e * std::pow(m, e - 1.0);
+  return settings_.weight * (std::pow(m, e) - std::pow(kPenaltyFloor, e));
+}
+
+ContactFigures ArticularContact::figures(const geometry::Pose& parent_pose,
+                                         const geometry::Pose& child_pose, bool with_points) const {
+  ContactFigures f;
+  const geometry::Pose child_from_parent = child_pose.inverse() * parent_pose;
+  std::vector<double> distances(samples_.size());
+  for (std::size_t i = 0; i < samples_.size(); ++i) {
+    distances[i] = grid_->distance(child_from_parent * samples_[i]);
+  }
+  // Raw figures: no dead band.
+  for (const Triangle& t : triangles_) {
+    double q[3];
+    for (int k = 0; k < 3; ++k) q[k] = -distances[t.sample[k]] * kMillimetresPerMetre;
+    double integrals[3];
+    positivePartIntegrals(t.area_mm2, q, integrals);
+    f.area_m2 += integrals[0] * 1e-6;
+    f.quasi_volume_m3 += integrals[1] * 1e-9;
+  }
+  const double deepest = *std::min_element(distances.begin(), distances.end());
+  f.max_depth_m = std::max(0.0, -deepest);
+  f.measure = measure(distances.data(), nullptr);
+  f.penalty = penalty(f.measure, nullptr);
+  if (with_points) {
+    for (std::size_t i = 0; i < samples_.size(); ++i) {
+      if (distances[i] < 0.0) f.points.push_back({parent_pose * samples_[i], -distances[i]});
+    }
+  }
+
+  const fcl::CollisionObjectd parent(parent_bvh_, parent_pose.linear(), parent_pose.translation());
+  const fcl::CollisionObjectd child(child_bvh_, child_pose.linear(), child_pose.translation());
+  fcl::CollisionRequestd collision_request;
+  fcl::CollisionResultd collision_result;
+  fcl::collide(&parent, &child, collision_request, collision_result);
+  f.in_collision = collision_result.isCollision();
+  if (f.in_collision) {
+    f.min_distance_m = -f.max_depth_m;
+  } else {
+    fcl::DistanceRequestd distance_request;
+    fcl::DistanceResultd distance_result;
+    fcl::distance(&parent, &child, distance_request, distance_result);
+    f.min_distance_m = distance_result.min_distance;
+  }
+  return f;
+}
+
+}  // namespace constraints
+}  // namespace fluoro_tracker
