@@ -82,7 +82,8 @@ struct Pseudonormals {
         const Eigen::Vector3d e2 = (v[l] - v[i]).normalized();
         const double angle = std::acos(std::clamp(e1.dot(e2), -1.0, 1.0));
         vertex[i] += angle * face[t];
-        edge[undirectedEdgeKey(i, j)] += face[t];
+        // Eigen vectors are not zeroed by default construction.
+        edge.try_emplace(undirectedEdgeKey(i, j), Eigen::Vector3d::Zero()).first->second += face[t];
       }
     }
   }

@@ -44,6 +44,19 @@ std::pair<double, double> percentiles(const cv::Mat& region, double low, double 
   return {lo, hi};
 }
 
+// Bilinear sample of a CV_32F image, clamped to its border.
+double bilinear(const cv::Mat& image, double u, double v) {
+  u = std::clamp(u, 0.0, image.cols - 1.0);
+  v = std::clamp(v, 0.0, image.rows - 1.0);
+  const int u0 = std::min(static_cast<int>(u), image.cols - 2);
+  const int v0 = std::min(static_cast<int>(v), image.rows - 2);
+  if (u0 < 0 || v0 < 0) return image.at<float>(static_cast<int>(v), static_cast<int>(u));
+  const double a = u - u0;
+  const double b = v - v0;
+  return (1 - b) * ((1 - a) * image.at<float>(v0, u0) + a * image.at<float>(v0, u0 + 1)) +
+         b * ((1 - a) * image.at<float>(v0 + 1, u0) + a * image.at<float>(v0 + 1, u0 + 1));
+}
+
 // Value below which `fraction` of the (non-negative) values of a CV_32F image lie.
 float percentile(const cv::Mat& values, double fraction) {
   std::vector<float> v(values.begin<float>(), values.end<float>());
@@ -62,6 +75,9 @@ void EdgeMapSettings::validate() const {
   }
   if (!(max_distance_px > 1.0)) throw InputError("edge map: max_distance_px must be > 1");
   if (!(blur_sigma_px >= 0.0)) throw InputError("edge map: blur_sigma_px must be >= 0");
+  if (!(line_distance_band_px > 0.0)) {
+    throw InputError("edge map: line_distance_band_px must be > 0");
+  }
   if (canny_low < 0.0 || canny_high < 0.0)
     throw InputError("edge map: Canny thresholds must be >= 0");
 }
@@ -108,25 +124,80 @@ EdgeMap::EdgeMap(const cv::Mat& image, const geometry::XrayCamera& camera, const
   cv::Mat smooth = grey_;
   if (s.blur_sigma_px > 0.0) cv::GaussianBlur(grey_, smooth, cv::Size(0, 0), s.blur_sigma_px);
 
+  cv::Mat gx;
+  cv::Mat gy;
+  cv::Mat magnitude;
+  cv::Sobel(smooth, gx, CV_32F, 1, 0);
+  cv::Sobel(smooth, gy, CV_32F, 0, 1);
+  cv::magnitude(gx, gy, magnitude);
   double low = s.canny_low;
   double high = s.canny_high;
   if (high <= 0.0) {
-    cv::Mat gx;
-    cv::Mat gy;
-    cv::Mat magnitude;
-    cv::Sobel(smooth, gx, CV_32F, 1, 0);
-    cv::Sobel(smooth, gy, CV_32F, 0, 1);
-    cv::magnitude(gx, gy, magnitude);
     high = std::max(10.0, s.auto_high_fraction * percentile(magnitude, 0.995));
     low = s.auto_low_ratio * high;
   } else if (low <= 0.0) {
     low = s.auto_low_ratio * high;
   }
   cv::Canny(smooth, edges_, low, high, 3, true);
+  computeSignedDistance(gx, gy, magnitude, s.line_distance_band_px);
+}
 
-  cv::Mat not_edges = edges_ == 0;
-  cv::distanceTransform(not_edges, distance_, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  cv::min(distance_, max_distance_, distance_);
+void EdgeMap::computeSignedDistance(const cv::Mat& gx, const cv::Mat& gy, const cv::Mat& magnitude,
+                                    double band) {
+  // Sub-pixel edge points and unit normals (toward the brighter side) at every edge pixel.
+  edge_points_ = cv::Mat(edges_.size(), CV_32FC2, cv::Scalar(0, 0));
+  std::vector<cv::Point> edge_pixels;
+  std::vector<Eigen::Vector2d> points;
+  std::vector<Eigen::Vector2d> normals;
+  for (int v = 0; v < edges_.rows; ++v) {
+    const std::uint8_t* e = edges_.ptr<std::uint8_t>(v);
+    for (int u = 0; u < edges_.cols; ++u) {
+      if (e[u] == 0) continue;
+      Eigen::Vector2d n(gx.at<float>(v, u), gy.at<float>(v, u));
+      const double norm = n.norm();
+      n = norm > 0.0 ? Eigen::Vector2d(n / norm) : Eigen::Vector2d(1.0, 0.0);
+      const double m0 = magnitude.at<float>(v, u);
+      const double plus = bilinear(magnitude, u + n.x(), v + n.y());
+      const double minus = bilinear(magnitude, u - n.x(), v - n.y());
+      const double curvature = plus - 2.0 * m0 + minus;
+      double offset = 0.0;
+      if (curvature < 0.0) offset = std::clamp(0.5 * (minus - plus) / curvature, -0.5, 0.5);
+      const Eigen::Vector2d point = Eigen::Vector2d(u, v) + offset * n;
+      edge_points_.at<cv::Vec2f>(v, u) =
+          cv::Vec2f(static_cast<float>(point.x()), static_cast<float>(point.y()));
+      edge_pixels.emplace_back(u, v);
+      points.push_back(point);
+      normals.push_back(n);
+    }
+  }
+  distance_ = cv::Mat(edges_.size(), CV_32F, cv::Scalar(max_distance_));
+  if (edge_pixels.empty()) return;
+  // Nearest edge pixel of every pixel: a labelled distance transform.
+  cv::Mat labels;
+  cv::Mat approximate;
+  cv::distanceTransform(edges_ == 0, approximate, labels, cv::DIST_L2, cv::DIST_MASK_5,
+                        cv::DIST_LABEL_PIXEL);
+  std::vector<int> edge_of_label(static_cast<std::size_t>(edges_.total()) + 1, -1);
+  for (std::size_t k = 0; k < edge_pixels.size(); ++k) {
+    edge_of_label[labels.at<int>(edge_pixels[k])] = static_cast<int>(k);
+  }
+  for (int v = 0; v < edges_.rows; ++v) {
+    const int* label = labels.ptr<int>(v);
+    float* out = distance_.ptr<float>(v);
+    for (int u = 0; u < edges_.cols; ++u) {
+      const int k = edge_of_label[label[u]];
+      if (k < 0) continue;
+      const Eigen::Vector2d offset = Eigen::Vector2d(u, v) - points[k];
+      const double along_normal = normals[k].dot(offset);
+      const double to_point = offset.norm();
+      // Tangent-line distance near the edge, point distance far from it, blended between.
+      const double w = std::clamp((to_point - band) / band, 0.0, 1.0);
+      const double magnitude_px = std::sqrt(
+          along_normal * along_normal + w * (to_point * to_point - along_normal * along_normal));
+      const double value = std::min(magnitude_px, max_distance_);
+      out[u] = static_cast<float>(along_normal < 0.0 ? -value : value);
+    }
+  }
 }
 
 bool EdgeMap::sample(double u, double v, double* distance, double* du, double* dv) const {

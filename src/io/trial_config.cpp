@@ -54,6 +54,62 @@ bool enabledFlag(const YAML::Node& joint, const std::string& key, const std::str
   return required<bool>(section, "enabled", context + "." + key);
 }
 
+// A joint's `contact:` section; absent: contact disabled.
+constraints::ContactSettings readContactSettings(const YAML::Node& joint,
+                                                 const std::string& context) {
+  constraints::ContactSettings c;
+  const YAML::Node node = joint["contact"];
+  if (!node) {
+    c.enabled = false;
+    return c;
+  }
+  const YamlSection section(node, context + ".contact");
+  section.allowOnly({"enabled", "measure", "dead_band_mm", "exponent", "weight", "region",
+                     "grid_spacing_mm", "grid_margin_mm", "grid_exact_band_mm"});
+  section.read("enabled", &c.enabled);
+  std::string measure = constraints::contactMeasureName(c.measure);
+  section.read("measure", &measure);
+  section.read("dead_band_mm", &c.dead_band_mm);
+  section.read("exponent", &c.exponent);
+  section.read("weight", &c.weight);
+  double spacing_mm = c.grid.spacing_m * 1e3;
+  double margin_mm = c.grid.margin_m * 1e3;
+  double band_mm = c.grid.exact_band_m * 1e3;
+  section.read("grid_spacing_mm", &spacing_mm);
+  section.read("grid_margin_mm", &margin_mm);
+  section.read("grid_exact_band_mm", &band_mm);
+  c.grid.spacing_m = spacing_mm * 1e-3;
+  c.grid.margin_m = margin_mm * 1e-3;
+  c.grid.exact_band_m = band_mm * 1e-3;
+  const YamlSection region = section.child("region");
+  region.allowOnly({"box_min_mm", "box_max_mm", "normal", "max_angle_deg"});
+  std::vector<double> box_min;
+  std::vector<double> box_max;
+  std::vector<double> normal;
+  region.read("box_min_mm", &box_min);
+  region.read("box_max_mm", &box_max);
+  region.read("normal", &normal);
+  region.read("max_angle_deg", &c.region.max_angle_deg);
+  if (box_min.size() != box_max.size() || (box_min.size() != 0 && box_min.size() != 3)) {
+    throw InputError(context + ".contact.region: box_min_mm and box_max_mm need 3 numbers each");
+  }
+  if (box_min.size() == 3) {
+    c.region.box = Eigen::AlignedBox3d(1e-3 * Eigen::Vector3d(box_min[0], box_min[1], box_min[2]),
+                                       1e-3 * Eigen::Vector3d(box_max[0], box_max[1], box_max[2]));
+  }
+  if (!normal.empty()) {
+    if (normal.size() != 3) throw InputError(context + ".contact.region: normal needs 3 numbers");
+    c.region.normal = Eigen::Vector3d(normal[0], normal[1], normal[2]);
+  }
+  try {
+    c.measure = constraints::contactMeasureFromName(measure);
+    c.validate();
+  } catch (const InputError& e) {
+    throw InputError(context + ": " + e.what());
+  }
+  return c;
+}
+
 // The `registration:` section: solver schedule, robust scales and edge detection.
 registration::RegistrationSettings readRegistrationSettings(const YAML::Node& node,
                                                             const std::string& context) {
@@ -62,7 +118,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.allowOnly({"scales", "outer_iterations", "solver_iterations", "contour_spacing_px",
                      "robust_scale_px", "roi_margin_px", "reverse_term_weight", "reverse_band_px",
                      "max_translation_from_start_m", "max_rotation_from_start_rad",
-                     "converged_translation_m", "converged_rotation_rad", "edges"});
+                     "converged_translation_m", "converged_rotation_rad", "edge_offset_model",
+                     "edge_offset_prior_px", "contact_from_outer_iteration", "edges"});
   section.read("scales", &r.scales);
   section.read("outer_iterations", &r.outer_iterations);
   section.read("solver_iterations", &r.solver_iterations);
@@ -75,10 +132,14 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("max_rotation_from_start_rad", &r.max_rotation_from_start_rad);
   section.read("converged_translation_m", &r.converged_translation_m);
   section.read("converged_rotation_rad", &r.converged_rotation_rad);
+  std::string edge_offset_model = registration::edgeOffsetModelName(r.edge_offset_model);
+  section.read("edge_offset_model", &edge_offset_model);
+  section.read("edge_offset_prior_px", &r.edge_offset_prior_px);
+  section.read("contact_from_outer_iteration", &r.contact_from_outer_iteration);
   const YamlSection edges = section.child("edges");
   edges.allowOnly({"window_low_percentile", "window_high_percentile", "clahe", "clahe_clip_limit",
                    "blur_sigma_px", "canny_low", "canny_high", "auto_high_fraction",
-                   "auto_low_ratio", "max_distance_px"});
+                   "auto_low_ratio", "max_distance_px", "line_distance_band_px"});
   edges.read("window_low_percentile", &r.edges.window_low_percentile);
   edges.read("window_high_percentile", &r.edges.window_high_percentile);
   edges.read("clahe", &r.edges.clahe);
@@ -89,7 +150,9 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   edges.read("auto_high_fraction", &r.edges.auto_high_fraction);
   edges.read("auto_low_ratio", &r.edges.auto_low_ratio);
   edges.read("max_distance_px", &r.edges.max_distance_px);
+  edges.read("line_distance_band_px", &r.edges.line_distance_band_px);
   try {
+    r.edge_offset_model = registration::edgeOffsetModelFromName(edge_offset_model);
     r.validate();
   } catch (const InputError& e) {
     throw InputError(context + ": " + e.what());
@@ -170,7 +233,7 @@ TrialConfig loadTrialConfig(const std::string& path) {
           throw InputError(context + ": bone '" + bone + "' is not listed under 'bones'");
         }
       }
-      joint.contact_enabled = enabledFlag(j, "contact", context);
+      joint.contact = readContactSettings(j, context);
       joint.ligaments_enabled = enabledFlag(j, "ligaments", context);
       config.joints.push_back(std::move(joint));
     }
@@ -185,6 +248,7 @@ void saveTrialConfig(const std::string& path, const TrialConfig& config) {
     return (!rel.empty() && *rel.begin() != "..") ? rel.string() : p;
   };
   YAML::Emitter out;
+  out.SetDoublePrecision(12);  // sub-nanometre for poses in metres; 0.7 stays 0.7
   out << YAML::BeginMap;
   if (!config.fixed_frame.empty())
     out << YAML::Key << "fixed_frame" << YAML::Value << config.fixed_frame;
@@ -218,8 +282,34 @@ void saveTrialConfig(const std::string& path, const TrialConfig& config) {
       out << YAML::Key << "parent" << YAML::Value << joint.parent;
       out << YAML::Key << "child" << YAML::Value << joint.child;
       out << YAML::Key << "type" << YAML::Value << joint.type;
-      out << YAML::Key << "contact" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
-          << "enabled" << YAML::Value << joint.contact_enabled << YAML::EndMap;
+      const constraints::ContactSettings& c = joint.contact;
+      out << YAML::Key << "contact" << YAML::Value << YAML::BeginMap;
+      out << YAML::Key << "enabled" << YAML::Value << c.enabled;
+      out << YAML::Key << "measure" << YAML::Value << constraints::contactMeasureName(c.measure);
+      out << YAML::Key << "dead_band_mm" << YAML::Value << c.dead_band_mm;
+      out << YAML::Key << "exponent" << YAML::Value << c.exponent;
+      out << YAML::Key << "weight" << YAML::Value << c.weight;
+      out << YAML::Key << "grid_spacing_mm" << YAML::Value << c.grid.spacing_m * 1e3;
+      out << YAML::Key << "grid_margin_mm" << YAML::Value << c.grid.margin_m * 1e3;
+      out << YAML::Key << "grid_exact_band_mm" << YAML::Value << c.grid.exact_band_m * 1e3;
+      if (!c.region.box.isEmpty() || c.region.normal.squaredNorm() > 0.0) {
+        out << YAML::Key << "region" << YAML::Value << YAML::BeginMap;
+        if (!c.region.box.isEmpty()) {
+          const Eigen::Vector3d lo = 1e3 * c.region.box.min();
+          const Eigen::Vector3d hi = 1e3 * c.region.box.max();
+          out << YAML::Key << "box_min_mm" << YAML::Value << YAML::Flow
+              << std::vector<double>{lo.x(), lo.y(), lo.z()};
+          out << YAML::Key << "box_max_mm" << YAML::Value << YAML::Flow
+              << std::vector<double>{hi.x(), hi.y(), hi.z()};
+        }
+        if (c.region.normal.squaredNorm() > 0.0) {
+          out << YAML::Key << "normal" << YAML::Value << YAML::Flow
+              << std::vector<double>{c.region.normal.x(), c.region.normal.y(), c.region.normal.z()};
+        }
+        out << YAML::Key << "max_angle_deg" << YAML::Value << c.region.max_angle_deg;
+        out << YAML::EndMap;
+      }
+      out << YAML::EndMap;
       out << YAML::Key << "ligaments" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
           << "enabled" << YAML::Value << joint.ligaments_enabled << YAML::EndMap;
       out << YAML::EndMap;

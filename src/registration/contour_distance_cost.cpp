@@ -10,26 +10,30 @@ namespace registration {
 
 ContourDistanceCost::ContourDistanceCost(const imaging::EdgeMap* edge_map,
                                          std::vector<Eigen::Vector3d> points_fixed,
+                                         std::vector<Eigen::Vector2d> offset_directions,
                                          const Eigen::Vector3d& centre, double robust_scale_px,
                                          double weight)
     : edge_map_(edge_map),
       points_(std::move(points_fixed)),
+      normals_(std::move(offset_directions)),
       centre_(centre),
       camera_from_fixed_(edge_map->camera().worldFromCamera().inverse()),
       robust_scale_(robust_scale_px),
       sqrt_weight_(std::sqrt(weight)) {
   set_num_residuals(static_cast<int>(points_.size()));
   mutable_parameter_block_sizes()->push_back(6);
+  mutable_parameter_block_sizes()->push_back(1);
 }
 
 double ContourDistanceCost::robustResidual(double d, double b, double* derivative) {
-  // Cauchy: rho(s) = b^2 log(1 + s / b^2), residual sqrt(rho(d^2)).
+  // Cauchy: rho(s) = b^2 log(1 + s / b^2), residual sign(d) sqrt(rho(d^2)): smooth through
+  // zero for a signed distance, and its square is rho whatever the sign.
   const double ratio = d / b;
   if (std::abs(ratio) < 1e-6) {
     *derivative = 1.0;
     return d;
   }
-  const double r = b * std::sqrt(std::log1p(ratio * ratio));
+  const double r = std::copysign(b * std::sqrt(std::log1p(ratio * ratio)), d);
   *derivative = d / (r * (1.0 + ratio * ratio));
   return r;
 }
@@ -39,7 +43,8 @@ bool ContourDistanceCost::Evaluate(double const* const* parameters, double* resi
   const IncrementedPoints moved(parameters[0], centre_, camera_from_fixed_);
   const geometry::XrayCamera& camera = edge_map_->camera();
   double* jac = (jacobians != nullptr) ? jacobians[0] : nullptr;
-
+  double* jac_offset = (jacobians != nullptr) ? jacobians[1] : nullptr;
+  const double offset = parameters[1][0];
   for (std::size_t i = 0; i < points_.size(); ++i) {
     Eigen::Vector3d rotated;
     const Eigen::Vector3d pc = moved.toCamera(points_[i], &rotated);
@@ -48,12 +53,16 @@ bool ContourDistanceCost::Evaluate(double const* const* parameters, double* resi
     double dv = 0.0;
     bool valid = pc.z() > 0.0;
     if (valid) {
-      const double u = camera.fx() * pc.x() / pc.z() + camera.cx();
-      const double v = camera.fy() * pc.y() / pc.z() + camera.cy();
+      const double u = camera.fx() * pc.x() / pc.z() + camera.cx() + offset * normals_[i].x();
+      const double v = camera.fy() * pc.y() / pc.z() + camera.cy() + offset * normals_[i].y();
       valid = edge_map_->sample(u, v, &distance, &du, &dv);
     }
     double slope = 0.0;
     residuals[i] = sqrt_weight_ * robustResidual(distance, robust_scale_, &slope);
+    if (jac_offset != nullptr) {
+      jac_offset[i] =
+          valid ? sqrt_weight_ * slope * (du * normals_[i].x() + dv * normals_[i].y()) : 0.0;
+    }
     if (jac == nullptr) continue;
     double* row = jac + 6 * i;
     if (!valid) {

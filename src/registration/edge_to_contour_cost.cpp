@@ -20,12 +20,15 @@ EdgeToContourCost::EdgeToContourCost(const geometry::XrayCamera& camera, std::ve
       sqrt_weight_(std::sqrt(weight)) {
   set_num_residuals(static_cast<int>(pairs_.size()));
   mutable_parameter_block_sizes()->push_back(6);
+  mutable_parameter_block_sizes()->push_back(1);
 }
 
 bool EdgeToContourCost::Evaluate(double const* const* parameters, double* residuals,
                                  double** jacobians) const {
   const IncrementedPoints moved(parameters[0], centre_, camera_from_fixed_);
   double* jac = (jacobians != nullptr) ? jacobians[0] : nullptr;
+  double* jac_offset = (jacobians != nullptr) ? jacobians[1] : nullptr;
+  const double offset = parameters[1][0];
 
   for (std::size_t i = 0; i < pairs_.size(); ++i) {
     const Pair& pair = pairs_[i];
@@ -34,15 +37,17 @@ bool EdgeToContourCost::Evaluate(double const* const* parameters, double* residu
     if (!(pc.z() > 0.0)) {
       residuals[i] = 0.0;
       if (jac != nullptr) std::fill(jac + 6 * i, jac + 6 * i + 6, 0.0);
+      if (jac_offset != nullptr) jac_offset[i] = 0.0;
       continue;
     }
     const double inv_z = 1.0 / pc.z();
     const Eigen::Vector2d u(camera_.fx() * pc.x() * inv_z + camera_.cx(),
                             camera_.fy() * pc.y() * inv_z + camera_.cy());
-    const double distance = pair.normal.dot(pair.edge_pixel - u);
+    const double distance = pair.normal.dot(pair.edge_pixel - u) - offset * pair.offset_gain;
     double slope = 0.0;
     residuals[i] =
         sqrt_weight_ * ContourDistanceCost::robustResidual(distance, robust_scale_, &slope);
+    if (jac_offset != nullptr) jac_offset[i] = -sqrt_weight_ * slope * pair.offset_gain;
     if (jac == nullptr) continue;
     // d(distance)/d(camera point) = -n · d(pixel)/d(point).
     const Eigen::RowVector3d d_pc =

@@ -65,12 +65,20 @@ bool isViewable(const BoneModel& bone, const geometry::Pose& pose,
   return true;
 }
 
+// Image motion of a contour point per pixel of edge offset (see EdgeOffsetModel): inward.
+Eigen::Vector2d offsetDirection(const imaging::ContourPoint& c,
+                                RegistrationSettings::EdgeOffsetModel model) {
+  return model == RegistrationSettings::EdgeOffsetModel::kUniform ? Eigen::Vector2d(-c.normal)
+                                                                  : Eigen::Vector2d::Zero();
+}
+
 // Pairs image edge pixels within `band` pixels of a projected contour with their nearest
 // contour sample (a labelled distance transform of the drawn contour), taking at most
 // `max_pairs` edges spread evenly.
 std::vector<EdgeToContourCost::Pair> edgeContourPairs(
     const imaging::EdgeMap& map, const std::vector<imaging::ContourPoint>& contour,
-    const geometry::Pose& pose, double band, std::size_t max_pairs) {
+    const geometry::Pose& pose, double band, std::size_t max_pairs,
+    RegistrationSettings::EdgeOffsetModel model) {
   // Work in the crop around the contour that the band can reach.
   Eigen::AlignedBox2d box;
   for (const auto& c : contour) box.extend(c.pixel);
@@ -121,12 +129,46 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
     const int j = sample_of_label[labels.at<int>(c.y, c.x)];
     if (j < 0) continue;
     pairs.push_back({pose * contour[j].model_point, contour[j].normal,
-                     Eigen::Vector2d(c.x + crop.x, c.y + crop.y)});
+                     map.edgePoint(c.x + crop.x, c.y + crop.y),
+                     contour[j].normal.dot(offsetDirection(contour[j], model))});
   }
   return pairs;
 }
 
+// Zero-mean Gaussian prior on an edge offset: residual offset / sigma.
+class EdgeOffsetPrior : public ceres::SizedCostFunction<1, 1> {
+ public:
+  explicit EdgeOffsetPrior(double inverse_sigma) : inverse_sigma_(inverse_sigma) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    residuals[0] = inverse_sigma_ * parameters[0][0];
+    if (jacobians != nullptr && jacobians[0] != nullptr) jacobians[0][0] = inverse_sigma_;
+    return true;
+  }
+
+ private:
+  double inverse_sigma_;
+};
+
 }  // namespace
+
+RegistrationSettings::EdgeOffsetModel edgeOffsetModelFromName(const std::string& name) {
+  using Model = RegistrationSettings::EdgeOffsetModel;
+  for (Model m : {Model::kNone, Model::kUniform}) {
+    if (edgeOffsetModelName(m) == name) return m;
+  }
+  throw InputError("registration: edge offset model '" + name + "' is not one of none, uniform");
+}
+
+std::string edgeOffsetModelName(RegistrationSettings::EdgeOffsetModel model) {
+  switch (model) {
+    case RegistrationSettings::EdgeOffsetModel::kNone:
+      return "none";
+    case RegistrationSettings::EdgeOffsetModel::kUniform:
+      return "uniform";
+  }
+  return "unknown";
+}
 
 void RegistrationSettings::validate() const {
   if (scales.empty()) throw InputError("registration: scales must not be empty");
@@ -138,6 +180,12 @@ void RegistrationSettings::validate() const {
   }
   if (!(contour_spacing_px > 0.0) || !(robust_scale_px > 0.0)) {
     throw InputError("registration: contour_spacing_px and robust_scale_px must be > 0");
+  }
+  if (!(edge_offset_prior_px >= 0.0)) {
+    throw InputError("registration: edge_offset_prior_px must be >= 0");
+  }
+  if (contact_from_outer_iteration < 0) {
+    throw InputError("registration: contact_from_outer_iteration must be >= 0");
   }
   edges.validate();
 }
@@ -178,6 +226,10 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
   result.poses = initial_poses;
   result.contour_points.assign(bones_.size(), 0);
   result.diverged.assign(bones_.size(), false);
+  // Edge offsets at the current scale's pixels, per bone and view; carried across outer
+  // iterations and scales (converted), as they describe the image, not the step.
+  std::vector<std::vector<double>> offsets(bones_.size(), std::vector<double>(views.size(), 0.0));
+  double previous_scale = settings_.scales.front();
   std::vector<cv::Rect> rois;
   for (const auto& view : views) {
     rois.push_back(regionOfInterest(view.camera, bones_, initial_poses, settings_.roi_margin_px));
@@ -190,6 +242,11 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
       maps.emplace_back(views[v].image, views[v].camera, settings_.edges, rois[v], scale);
     }
     const double robust_scale = settings_.robust_scale_px * scale;
+    // Offsets are in pixels of the map's scale.
+    for (auto& per_view : offsets) {
+      for (double& o : per_view) o *= scale / previous_scale;
+    }
+    previous_scale = scale;
 
     for (int outer = 0; outer < settings_.outer_iterations; ++outer) {
       ++result.outer_iterations;
@@ -210,27 +267,47 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
                                                              settings_.contour_spacing_px);
           if (contour.empty()) continue;
           std::vector<Eigen::Vector3d> points;
+          std::vector<Eigen::Vector2d> offset_directions;
           points.reserve(contour.size());
-          for (const auto& c : contour) points.push_back(pose * c.model_point);
+          offset_directions.reserve(contour.size());
+          for (const auto& c : contour) {
+            points.push_back(pose * c.model_point);
+            offset_directions.push_back(offsetDirection(c, settings_.edge_offset_model));
+          }
           points_in_views += static_cast<int>(points.size());
           const std::size_t forward_count = points.size();
-          problem.AddResidualBlock(new ContourDistanceCost(&maps[v], std::move(points), centres[b],
-                                                           robust_scale, bones_[b].image_weight),
-                                   nullptr, increments[b].data());
+          double* offset = &offsets[b][v];
+          problem.AddResidualBlock(
+              new ContourDistanceCost(&maps[v], std::move(points), std::move(offset_directions),
+                                      centres[b], robust_scale, bones_[b].image_weight),
+              nullptr, increments[b].data(), offset);
+          if (settings_.edge_offset_model != RegistrationSettings::EdgeOffsetModel::kNone &&
+              settings_.edge_offset_prior_px > 0.0) {
+            problem.AddResidualBlock(
+                new EdgeOffsetPrior(1.0 / (settings_.edge_offset_prior_px * scale)), nullptr,
+                offset);
+          } else {
+            problem.SetParameterBlockConstant(offset);
+          }
           if (settings_.reverse_term_weight > 0.0) {
             auto pairs = edgeContourPairs(maps[v], contour, pose, settings_.reverse_band_px * scale,
-                                          forward_count);
+                                          forward_count, settings_.edge_offset_model);
             if (!pairs.empty()) {
               problem.AddResidualBlock(
                   new EdgeToContourCost(camera, std::move(pairs), centres[b], robust_scale,
                                         settings_.reverse_term_weight * bones_[b].image_weight),
-                  nullptr, increments[b].data());
+                  nullptr, increments[b].data(), offset);
             }
           }
         }
         result.contour_points[b] = points_in_views;
       }
+      // Contact joins once the image has placed the bones: from a crude start, penetration
+      // relieved first is relieved along the beam, where the image resists least.
+      const bool with_contact =
+          scale == settings_.scales.back() && outer >= settings_.contact_from_outer_iteration;
       for (const auto& pair : contacts_) {
+        if (!with_contact) break;
         if (result.diverged[pair.parent] || result.diverged[pair.child]) continue;
         if (!problem.HasParameterBlock(increments[pair.parent].data()) ||
             !problem.HasParameterBlock(increments[pair.child].data())) {
@@ -281,6 +358,10 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
         break;
       }
     }
+  }
+  result.edge_offsets_px = offsets;
+  for (auto& per_view : result.edge_offsets_px) {
+    for (double& o : per_view) o /= previous_scale;
   }
   for (const auto& pair : contacts_) {
     result.contacts.push_back(

@@ -14,11 +14,14 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <random>
+#include <sstream>
 
 #include <boost/program_options.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "fluoro_tracker/constraints/articular_contact.h"
 #include "fluoro_tracker/imaging/projection_similarity.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/jointtrack_calibration.h"
@@ -62,7 +65,14 @@ struct Tally {
   std::vector<double> evaluations;
   Eigen::Matrix<double, 6, 1> sum_squares = Eigen::Matrix<double, 6, 1>::Zero();
   Eigen::Matrix<double, 6, 1> sum = Eigen::Matrix<double, 6, 1>::Zero();
-  int samples = 0;  // bone-frames in successful frames
+  int samples = 0;                                            // bone-frames in successful frames
+  std::vector<Eigen::Matrix<double, 6, 1>> bone_sum_squares;  // per bone, successful frames
+  // Second bone's position relative to the first, error in the view's axes (mm), all frames:
+  // what joint kinematics see, and what contact constrains.
+  Eigen::Vector3d relative_sum_squares = Eigen::Vector3d::Zero();
+  Eigen::Vector3d relative_sum = Eigen::Vector3d::Zero();
+  // Contact at the result: frames whose surfaces interpenetrate more than 0.5 mm.
+  int deep_penetrations = 0;
   // Projection similarity (grey + edge NCC, view 1) at the result and at the truth.
   std::vector<double> similarity_result;
   std::vector<double> similarity_truth;
@@ -74,6 +84,11 @@ struct Tally {
     similarity_result.push_back(at_result);
     similarity_truth.push_back(at_truth);
     if (!success && at_result < at_truth) ++failed_frames_scored_below_truth;
+  }
+
+  void addRelative(const Eigen::Vector3d& error_mm) {
+    relative_sum_squares += error_mm.cwiseProduct(error_mm);
+    relative_sum += error_mm;
   }
 
   void add(const std::vector<PoseError>& errors, double ms, int cost_evaluations) {
@@ -92,9 +107,12 @@ struct Tally {
     const bool ok = std::all_of(errors.begin(), errors.end(), registration::meetsSuccessCriterion);
     if (!ok) return;
     ++successes;
-    for (const auto& e : errors) {
+    bone_sum_squares.resize(errors.size(), Eigen::Matrix<double, 6, 1>::Zero());
+    for (std::size_t b = 0; b < errors.size(); ++b) {
+      const PoseError& e = errors[b];
       Eigen::Matrix<double, 6, 1> v;
       v << e.translation_mm, e.rotation_deg;
+      bone_sum_squares[b] += v.cwiseProduct(v);
       sum_squares += v.cwiseProduct(v);
       sum += v;
       ++samples;
@@ -109,10 +127,24 @@ struct Tally {
       std::cout << std::setprecision(2) << "  RMS (successful frames, both bones): tx " << rms[0]
                 << " mm, ty " << rms[1] << " mm, tz " << rms[2] << " mm, rx " << rms[3]
                 << " deg, ry " << rms[4] << " deg, rz " << rms[5] << " deg\n";
+      for (std::size_t b = 0; b < bone_sum_squares.size(); ++b) {
+        const Eigen::Matrix<double, 6, 1> bone = (bone_sum_squares[b] / successes).cwiseSqrt();
+        std::cout << "  RMS bone " << b << ": tx " << bone[0] << " mm, ty " << bone[1] << " mm, tz "
+                  << bone[2] << " mm, rx " << bone[3] << " deg, ry " << bone[4] << " deg, rz "
+                  << bone[5] << " deg\n";
+      }
       const Eigen::Matrix<double, 6, 1> mean = sum / samples;
       std::cout << "  mean error: tx " << mean[0] << " mm, ty " << mean[1] << " mm, tz " << mean[2]
                 << " mm, rx " << mean[3] << " deg, ry " << mean[4] << " deg, rz " << mean[5]
                 << " deg\n";
+    }
+    if (frames > 0 && relative_sum_squares.squaredNorm() > 0.0) {
+      const Eigen::Vector3d rms = (relative_sum_squares / frames).cwiseSqrt();
+      const Eigen::Vector3d mean = relative_sum / frames;
+      std::cout << std::setprecision(2) << "  tibia relative to femur (all frames): RMS x "
+                << rms.x() << " mm, y " << rms.y() << " mm, z (out-of-plane) " << rms.z()
+                << " mm; mean z " << mean.z()
+                << " mm; frames penetrating > 0.5 mm: " << deep_penetrations << "\n";
     }
     for (std::size_t b = 0; b < failures.size(); ++b) {
       std::cout << "  bone " << b << " out of bounds in frames: in-plane " << failures[b][0]
@@ -148,10 +180,40 @@ struct Perturbation {
   double rotation_deg = 3.0;
 };
 
+// One registration set-up compared in the benchmark (a row of Table 3-1).
+struct Condition {
+  std::string name;
+  bool contact = false;
+  bool keep_in_contact = false;
+};
+
+// Contact between the femoral component and the tibial insert as the simulator builds them.
+std::vector<registration::ContactPair> kneeContact(const geometry::Mesh& femoral_component,
+                                                   const geometry::Mesh& insert,
+                                                   const constraints::ContactSettings& settings,
+                                                   bool keep_in_contact) {
+  std::vector<registration::ContactPair> pairs = {
+      {"knee", 0, 1,
+       std::make_shared<constraints::ArticularContact>(femoral_component, insert, settings)}};
+  if (keep_in_contact) {
+    constraints::ContactSettings separation = settings;
+    separation.measure = constraints::ContactMeasure::kSeparation;
+    separation.exponent = 1.0;
+    separation.dead_band_mm = 0.0;
+    separation.weight = 20.0;
+    pairs.push_back(
+        {"knee", 0, 1,
+         std::make_shared<constraints::ArticularContact>(femoral_component, insert, separation)});
+  }
+  return pairs;
+}
+
 void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool ideal_images,
                   const Perturbation& perturbation,
-                  const registration::RegistrationSettings& settings) {
-  Tally tally;
+                  const registration::RegistrationSettings& settings,
+                  const std::vector<Condition>& conditions,
+                  const constraints::ContactSettings& contact_settings) {
+  std::vector<Tally> tallies(conditions.size());
   std::mt19937_64 rng(seed);
   for (int trial = 0; trial < trials; ++trial) {
     sim::TrialSimulatorSettings s;
@@ -170,12 +232,22 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
     }
     const sim::TrialSimulator simulator(s);
     const auto& implants = simulator.implants();
-    const registration::Registrar registrar(
-        boneModels({&implants.femoral_component, &implants.tibial_tray}, {"femur", "tibia"}),
-        settings);
+    std::vector<std::unique_ptr<registration::Registrar>> registrars;
+    for (const Condition& condition : conditions) {
+      registrars.push_back(std::make_unique<registration::Registrar>(
+          boneModels({&implants.femoral_component, &implants.tibial_tray}, {"femur", "tibia"}),
+          settings,
+          condition.contact ? kneeContact(implants.femoral_component, implants.tibial_insert,
+                                          contact_settings, condition.keep_in_contact)
+                            : std::vector<registration::ContactPair>{}));
+    }
+    // Measures penetration at every result, with or without contact in the registration.
+    const constraints::ArticularContact penetration_probe(implants.femoral_component,
+                                                          implants.tibial_insert, contact_settings);
     std::vector<registration::ViewImage> view_images;
     for (const auto& v : simulator.views()) view_images.push_back({cv::Mat(), v.camera});
     const Pose camera_from_fixed = simulator.views()[0].camera.worldFromCamera().inverse();
+    const imaging::EdgeMapSettings edge_settings = settings.edges;
     for (int f = 0; f < frames; ++f) {
       const sim::SimulatedFrame frame = simulator.render(f, &rng);
       for (std::size_t v = 0; v < view_images.size(); ++v) view_images[v].image = frame.images[v];
@@ -185,28 +257,41 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
         start.push_back(perturb(t, camera_from_fixed, &rng, perturbation.in_plane_mm,
                                 perturbation.out_of_plane_mm, perturbation.rotation_deg));
       }
-      const auto t0 = std::chrono::steady_clock::now();
-      const auto result = registrar.solve(view_images, start);
-      const double ms =
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      std::vector<PoseError> errors;
-      for (std::size_t b = 0; b < truth.size(); ++b) {
-        errors.push_back(poseError(result.poses[b], truth[b], camera_from_fixed));
-      }
-      tally.add(errors, ms, result.cost_evaluations);
-      const imaging::EdgeMap map(frame.images[0], simulator.views()[0].camera, settings.edges);
+      const imaging::EdgeMap map(frame.images[0], simulator.views()[0].camera, edge_settings);
       const std::vector<const geometry::Mesh*> meshes = {&implants.femoral_component,
                                                          &implants.tibial_tray};
-      tally.addSimilarity(
-          imaging::projectionSimilarity(map, meshes, result.poses).total(),
-          imaging::projectionSimilarity(map, meshes, truth).total(),
-          std::all_of(errors.begin(), errors.end(), registration::meetsSuccessCriterion));
+      const double similarity_truth = imaging::projectionSimilarity(map, meshes, truth).total();
+      for (std::size_t c = 0; c < conditions.size(); ++c) {
+        Tally& tally = tallies[c];
+        const auto t0 = std::chrono::steady_clock::now();
+        const auto result = registrars[c]->solve(view_images, start);
+        const double ms =
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count();
+        std::vector<PoseError> errors;
+        for (std::size_t b = 0; b < truth.size(); ++b) {
+          errors.push_back(poseError(result.poses[b], truth[b], camera_from_fixed));
+        }
+        tally.add(errors, ms, result.cost_evaluations);
+        const Eigen::Vector3d relative_result =
+            result.poses[1].translation() - result.poses[0].translation();
+        const Eigen::Vector3d relative_truth = truth[1].translation() - truth[0].translation();
+        tally.addRelative(1e3 * (camera_from_fixed.linear() * (relative_result - relative_truth)));
+        const constraints::ContactFigures figures =
+            penetration_probe.figures(result.poses[0], result.poses[1]);
+        if (figures.max_depth_m > 0.5e-3) ++tally.deep_penetrations;
+        tally.addSimilarity(
+            imaging::projectionSimilarity(map, meshes, result.poses).total(), similarity_truth,
+            std::all_of(errors.begin(), errors.end(), registration::meetsSuccessCriterion));
+      }
     }
   }
-  tally.print("simulated " + std::string(views == 1 ? "single-plane" : "bi-plane") +
-              " total knee, " + std::to_string(trials) + " trial(s) x " + std::to_string(frames) +
-              " frame(s), 1024x1024, image terms only, start +-2 mm in-plane, +-3 mm out-of-plane, "
-              "+-3 deg:");
+  for (std::size_t c = 0; c < conditions.size(); ++c) {
+    tallies[c].print("simulated " + std::string(views == 1 ? "single-plane" : "bi-plane") +
+                     " total knee, " + std::to_string(trials) + " trial(s) x " +
+                     std::to_string(frames) + " frame(s), 1024x1024, " + conditions[c].name +
+                     ", start +-2 mm in-plane, +-3 mm out-of-plane, +-3 deg:");
+  }
 }
 
 void runKneel(const std::string& dir, int starts, std::uint64_t seed,
@@ -268,6 +353,10 @@ int main(int argc, char** argv) {
   Perturbation perturbation;
   registration::RegistrationSettings settings;
   std::vector<double> scales;
+  std::string conditions_option = "image,contact";
+  std::string edge_offset_model = "uniform";
+  std::string contact_measure = "quasi_volume";
+  constraints::ContactSettings contact;
   options.add_options()("help,h", "show this help")(
       "trials", po::value(&trials)->default_value(trials), "simulated trials")(
       "frames", po::value(&frames)->default_value(frames), "frames per trial")(
@@ -295,7 +384,22 @@ int main(int argc, char** argv) {
       "reverse-weight",
       po::value(&settings.reverse_term_weight)->default_value(settings.reverse_term_weight),
       "weight of the edge-to-contour (reverse) term; 0: forward term only")(
-      "ideal", "simulate without anatomy and noise (isolates the method from image clutter)");
+      "edge-offset-model", po::value(&edge_offset_model)->default_value(edge_offset_model),
+      "uniform (one offset per bone and view) or none")(
+      "edge-offset-prior-px",
+      po::value(&settings.edge_offset_prior_px)->default_value(settings.edge_offset_prior_px),
+      "prior sigma of each bone's edge offset, pixels")(
+      "ideal", "simulate without anatomy and noise (isolates the method from image clutter)")(
+      "conditions", po::value(&conditions_option)->default_value(conditions_option),
+      "comma-separated: image (image terms only), contact (image + articular contact)")(
+      "contact-measure", po::value(&contact_measure)->default_value(contact_measure),
+      "penetration_depth, penetration_area, quasi_volume, elastic_energy or separation")(
+      "contact-weight", po::value(&contact.weight)->default_value(contact.weight),
+      "weight of the contact residual")(
+      "contact-exponent", po::value(&contact.exponent)->default_value(contact.exponent),
+      "the residual is weight x measure^exponent")(
+      "contact-dead-band-mm", po::value(&contact.dead_band_mm)->default_value(contact.dead_band_mm),
+      "penetration allowed without cost");
   po::variables_map vm;
   try {
     po::store(po::parse_command_line(argc, argv, options), vm);
@@ -310,8 +414,27 @@ int main(int argc, char** argv) {
   }
   try {
     if (!scales.empty()) settings.scales = scales;
-    if (!vm.count("skip-simulated"))
-      runSimulated(trials, frames, views, seed, vm.count("ideal") > 0, perturbation, settings);
+    contact.measure = constraints::contactMeasureFromName(contact_measure);
+    settings.edge_offset_model = registration::edgeOffsetModelFromName(edge_offset_model);
+    contact.validate();
+    std::vector<Condition> conditions;
+    std::stringstream list(conditions_option);
+    for (std::string name; std::getline(list, name, ',');) {
+      if (name == "image") {
+        conditions.push_back({"image terms only", false});
+      } else if (name == "contact") {
+        conditions.push_back({"image + contact (" + contact_measure + ")", true});
+      } else if (name == "contact+separation") {
+        conditions.push_back(
+            {"image + contact (" + contact_measure + ") + separation", true, true});
+      } else {
+        throw InputError("--conditions: unknown condition '" + name + "' (image, contact)");
+      }
+    }
+    if (!vm.count("skip-simulated")) {
+      runSimulated(trials, frames, views, seed, vm.count("ideal") > 0, perturbation, settings,
+                   conditions, contact);
+    }
     if (!kneel_dir.empty()) runKneel(kneel_dir, kneel_starts, seed, settings);
     return 0;
   } catch (const std::exception& e) {

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -16,6 +17,7 @@
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/poses_csv.h"
 #include "fluoro_tracker/io/trial_config.h"
+#include "fluoro_tracker/io/trial_models.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/registration/registrar.h"
 #include "fluoro_tracker/ros/bag_frame_reader.h"
@@ -56,7 +58,7 @@ int main(int argc, char** argv) {
   po::options_description options(
       "track_bag: track bones through a fluoroscopy bag (no ROS master needed)\n\nOptions");
   std::string config_path, bag_path, poses_path, kinematics_path, out_bag, init_path, truth_path,
-      overlay_dir;
+      overlay_dir, contact_path;
   std::vector<std::string> image_topics;
   int overlay_every = 10;
   options.add_options()("help,h", "show this help")("config", po::value(&config_path)->required(),
@@ -71,6 +73,8 @@ int main(int argc, char** argv) {
       "image topic(s); default: all in the bag")("truth-csv", po::value(&truth_path),
                                                  "ground-truth poses CSV: print the accuracy")(
       "overlay-dir", po::value(&overlay_dir), "write contour overlays (PNG) here")(
+      "contact-csv", po::value(&contact_path),
+      "per joint and frame: collision, penetration depth, area, quasi-volume, gap")(
       "overlay-every", po::value(&overlay_every)->default_value(overlay_every),
       "overlay every Nth frame");
   po::variables_map vm;
@@ -93,15 +97,16 @@ int main(int argc, char** argv) {
 
   try {
     const io::TrialConfig config = io::loadTrialConfig(config_path);
-    std::vector<geometry::Mesh> meshes;
-    std::vector<registration::BoneModel> bones;
-    for (const auto& bone : config.bones) {
-      geometry::MeshLoadOptions load;
-      load.file_units = bone.mesh_units;
-      meshes.push_back(geometry::Mesh::load(bone.mesh, load));
-      bones.push_back({bone.name, std::make_shared<imaging::SilhouetteModel>(meshes.back()), 1.0});
+    const io::TrialModels models = io::loadTrialModels(config);
+    const std::vector<registration::BoneModel>& bones = models.bones;
+    const registration::Registrar registrar(models.bones, config.registration, models.contacts);
+    std::ofstream contact_csv;
+    if (!contact_path.empty()) {
+      contact_csv.open(contact_path);
+      if (!contact_csv) throw InputError("cannot write --contact-csv '" + contact_path + "'");
+      contact_csv << "frame,stamp,joint,in_collision,max_depth_mm,area_mm2,quasi_volume_mm3,"
+                     "min_distance_mm,penalty\n";
     }
-    const registration::Registrar registrar(bones, config.registration);
 
     // Starting poses: per-frame guesses, or the trial's initial poses then the previous frames.
     std::map<std::pair<int, std::string>, Pose> guesses;
@@ -173,6 +178,17 @@ int main(int argc, char** argv) {
             records.push_back({frame.index, frame.stamp_s, bones[b].name, result.poses[b], status});
           }
           flagged += frame_flagged ? 1 : 0;
+          if (contact_csv.is_open()) {
+            for (std::size_t j = 0; j < result.contacts.size(); ++j) {
+              const auto& c = result.contacts[j];
+              contact_csv << frame.index << "," << std::fixed << std::setprecision(6)
+                          << frame.stamp_s << "," << registrar.contacts()[j].joint << ","
+                          << (c.in_collision ? 1 : 0) << "," << std::setprecision(4)
+                          << c.max_depth_m * 1e3 << "," << c.area_m2 * 1e6 << ","
+                          << c.quasi_volume_m3 * 1e9 << "," << c.min_distance_m * 1e3 << ","
+                          << c.penalty << "\n";
+            }
+          }
           ++tracked;
           before_previous = frame_flagged ? std::vector<Pose>() : previous;
           previous = result.poses;

@@ -47,9 +47,11 @@ struct ContactSettings {
   // for kSeparation, the gap allowed.
   double dead_band_mm = 0.0;
   // The residual is weight x measure^exponent (the dissertation used quasi-volume^0.7, which
-  // is gentler on deep penetration than the volume itself).
+  // is gentler on deep penetration than the volume itself). With the default, 0.5 mm of
+  // penetration over 1 cm^2 costs as much as ~40 contour points 4 px off: contact acts almost
+  // as a hard constraint against the image terms.
   double exponent = 0.7;
-  double weight = 1.0;
+  double weight = 20.0;
   ContactRegion region;
   geometry::SignedDistanceGridSettings grid;
 

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "fluoro_tracker/constraints/articular_contact.h"
 #include "fluoro_tracker/geometry/length_unit.h"
 #include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/registration/registrar.h"
@@ -28,7 +29,9 @@ struct JointConfig {
   std::string parent;
   std::string child;
   std::string type = "knee";
-  bool contact_enabled = true;
+  // Articular contact between the parent's surface and the child's (articular_mesh, or the
+  // image mesh when none is given). A joint without a `contact:` section has it disabled.
+  constraints::ContactSettings contact;
   bool ligaments_enabled = true;
 };
 

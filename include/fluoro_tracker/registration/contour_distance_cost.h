@@ -11,16 +11,24 @@ namespace fluoro_tracker {
 namespace registration {
 
 // The dissertation's contour metric as a Ceres residual block for one bone in one view: for each
-// projected outer-contour point, the distance (pixels) from its projection to the nearest image
-// edge, robustified per point with a Cauchy loss (so that contour points with no edge nearby,
-// e.g. behind an occluder, stop pulling) and weighted. One parameter block: the bone's pose
-// increment (see pose_increment.h). Analytic Jacobians.
+// projected outer-contour point, the signed distance (pixels) from its projection to the nearest
+// image edge, robustified per point with a Cauchy loss (so that contour points with no edge nearby,
+// e.g. behind an occluder, stop pulling) and weighted. Two parameter blocks: the bone's pose
+// increment (see pose_increment.h) and the bone's edge offset in this view (one value, see
+// RegistrationSettings::edge_offset_model): each contour point is moved along its offset
+// direction before it is compared, since the displayed edge of a real implant lies a fraction
+// of a pixel inside its geometric silhouette (metal that thins toward a sharp rim, detector
+// blur before a logarithmic display).
+// Analytic Jacobians.
 class ContourDistanceCost : public ceres::CostFunction {
  public:
   // `points_fixed`: contour points at the current pose T0, in the fixed frame. `centre`: the
   // rotation centre of the increment. `edge_map` must outlive the cost.
+  // `offset_directions`: how far (map pixels) and which way each point moves per unit of the
+  // edge offset parameter.
   ContourDistanceCost(const imaging::EdgeMap* edge_map, std::vector<Eigen::Vector3d> points_fixed,
-                      const Eigen::Vector3d& centre, double robust_scale_px, double weight);
+                      std::vector<Eigen::Vector2d> offset_directions, const Eigen::Vector3d& centre,
+                      double robust_scale_px, double weight);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -31,6 +39,7 @@ class ContourDistanceCost : public ceres::CostFunction {
  private:
   const imaging::EdgeMap* edge_map_;
   std::vector<Eigen::Vector3d> points_;
+  std::vector<Eigen::Vector2d> normals_;
   Eigen::Vector3d centre_;
   geometry::Pose camera_from_fixed_;
   double robust_scale_;

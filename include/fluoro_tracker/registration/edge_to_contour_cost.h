@@ -14,13 +14,16 @@ namespace registration {
 // pixels near the projected contour, each paired (for one outer iteration) with its nearest
 // contour sample, contribute their distance to that sample's tangent line, n·(e − u(δ)),
 // Cauchy-robustified and weighted. It penalises a projection that is smaller than the edges
-// around it, which the forward term alone would reward. Analytic Jacobians.
+// around it, which the forward term alone would reward. Parameter blocks as the forward term's:
+// the pose increment and the edge offset (which moves the tangent line outward). Analytic
+// Jacobians.
 class EdgeToContourCost : public ceres::CostFunction {
  public:
   struct Pair {
     Eigen::Vector3d contour_point_fixed;  // contour sample at the current pose, fixed frame
     Eigen::Vector2d normal;               // its outward normal in the image
-    Eigen::Vector2d edge_pixel;           // the image edge paired with it
+    Eigen::Vector2d edge_pixel;           // the image edge paired with it (sub-pixel)
+    double offset_gain = 1.0;  // outward motion of the contour per unit of the edge offset
   };
 
   EdgeToContourCost(const geometry::XrayCamera& camera, std::vector<Pair> pairs,

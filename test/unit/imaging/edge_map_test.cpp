@@ -11,33 +11,66 @@ namespace {
 
 const geometry::XrayCamera kCamera(200, 160, 1000.0, 1000.0, 99.5, 79.5);
 
-// A dark disc of radius 30 px centred at (100, 80) on a bright background.
+// A disc of radius 30.3 px centred at (100, 80), dark on a bright background or the reverse,
+// anti-aliased by 8x8 supersampling of each pixel (pixel centres at integer coordinates).
+constexpr double kDiscRadius = 30.3;
 cv::Mat disc(bool bright_implant, int type = CV_8U) {
-  cv::Mat image(160, 200, type, cv::Scalar(bright_implant ? 40 : 200) * (type == CV_16U ? 256 : 1));
-  cv::circle(image, cv::Point(100 * 16, 80 * 16), 30 * 16,
-             cv::Scalar(bright_implant ? 200 : 40) * (type == CV_16U ? 256 : 1), cv::FILLED,
-             cv::LINE_AA, 4);
-  return image;
+  const double inside = bright_implant ? 200.0 : 40.0;
+  const double outside = bright_implant ? 40.0 : 200.0;
+  const double unit = type == CV_16U ? 256.0 : 1.0;
+  cv::Mat image(160, 200, CV_64F);
+  for (int v = 0; v < image.rows; ++v) {
+    for (int u = 0; u < image.cols; ++u) {
+      int covered = 0;
+      for (int i = 0; i < 8; ++i) {
+        for (int j = 0; j < 8; ++j) {
+          const double x = u - 0.5 + (i + 0.5) / 8.0 - 100.0;
+          const double y = v - 0.5 + (j + 0.5) / 8.0 - 80.0;
+          covered += x * x + y * y <= kDiscRadius * kDiscRadius ? 1 : 0;
+        }
+      }
+      const double f = covered / 64.0;
+      image.at<double>(v, u) = unit * (f * inside + (1.0 - f) * outside);
+    }
+  }
+  cv::Mat out;
+  image.convertTo(out, type);
+  return out;
 }
 
 }  // namespace
 
-TEST(EdgeMap, EdgesLieOnTheBoundaryInEitherPolarityAndBitDepth) {
+TEST(EdgeMap, SubPixelEdgesLieOnTheBoundaryInEitherPolarityAndBitDepth) {
   for (bool bright : {false, true}) {
     for (int type : {CV_8U, CV_16U}) {
       const EdgeMap map(disc(bright, type), kCamera, imaging::EdgeMapSettings());
       double d = 0.0;
       double du = 0.0;
       double dv = 0.0;
-      for (int k = 0; k < 16; ++k) {
-        const double a = 2.0 * M_PI * k / 16;
-        ASSERT_TRUE(map.sample(100 + 30 * std::cos(a), 80 + 30 * std::sin(a), &d, &du, &dv));
-        EXPECT_LE(d, 1.0) << "bright " << bright << " angle " << a;  // pixel-accurate edges
+      double sum = 0.0;
+      for (int k = 0; k < 32; ++k) {
+        const double a = 2.0 * M_PI * k / 32;
+        ASSERT_TRUE(map.sample(100 + kDiscRadius * std::cos(a), 80 + kDiscRadius * std::sin(a), &d,
+                               &du, &dv));
+        EXPECT_LE(std::abs(d), 0.3) << "bright " << bright << " angle " << a;
+        sum += d;
       }
-      // 10 px inside the disc the nearest edge is ~10 px away, and the distance grows inward.
+      // No systematic shrink or growth: the mean over the circle is well under a pixel.
+      EXPECT_LT(std::abs(sum / 32), 0.1) << "bright " << bright;
+      // 10 px inside the disc the nearest edge is ~10 px away; the sign says which side of the
+      // edge is brighter (positive), and the distance grows away from the edge.
       ASSERT_TRUE(map.sample(120.0, 80.0, &d, &du, &dv));
-      EXPECT_NEAR(d, 10.0, 1.0);
-      EXPECT_LT(du, -0.5);
+      EXPECT_NEAR(std::abs(d), kDiscRadius - 20.0, 1.0);
+      if (bright) {
+        EXPECT_GT(d, 0.0);
+        EXPECT_LT(du, -0.5);
+      } else {
+        EXPECT_LT(d, 0.0);
+        EXPECT_GT(du, 0.5);
+      }
+      // Just outside the disc, the other sign.
+      ASSERT_TRUE(map.sample(100.0 + kDiscRadius + 2.0, 80.0, &d, &du, &dv));
+      EXPECT_EQ(d > 0.0, !bright);
     }
   }
 }
@@ -48,14 +81,15 @@ TEST(EdgeMap, RegionAndScaleKeepPixelsConsistentWithTheCamera) {
   EXPECT_EQ(map.camera().width(), 60);
   EXPECT_EQ(map.camera().height(), 60);
   // The disc's right-most boundary point, projected with the map's camera, is on an edge.
-  const Eigen::Vector3d point_on_boundary((130.0 - 99.5) / 1000.0, (80.0 - 79.5) / 1000.0, 1.0);
+  const Eigen::Vector3d point_on_boundary((100.0 + kDiscRadius - 99.5) / 1000.0,
+                                          (80.0 - 79.5) / 1000.0, 1.0);
   Eigen::Vector2d px;
   ASSERT_TRUE(map.camera().project(point_on_boundary, &px));
   double d = 0.0;
   double du = 0.0;
   double dv = 0.0;
   ASSERT_TRUE(map.sample(px.x(), px.y(), &d, &du, &dv));
-  EXPECT_LE(d, 1.0);
+  EXPECT_LE(std::abs(d), 0.6);  // half resolution
   EXPECT_FALSE(map.sample(-5.0, 10.0, &d, &du, &dv));
   EXPECT_EQ(d, imaging::EdgeMapSettings().max_distance_px);
 }

@@ -43,7 +43,9 @@ joints:
   EXPECT_EQ(c.bones[1].articular_mesh,
             (std::filesystem::path(dir.path()) / "meshes/insert.stl").string());
   ASSERT_EQ(c.joints.size(), 1u);
-  EXPECT_TRUE(c.joints[0].contact_enabled);
+  EXPECT_TRUE(c.joints[0].contact.enabled);
+  EXPECT_DOUBLE_EQ(c.joints[0].contact.dead_band_mm, 1.0);
+  EXPECT_EQ(c.joints[0].contact.measure, constraints::ContactSettings().measure);
   EXPECT_FALSE(c.joints[0].ligaments_enabled);
   EXPECT_NE(c.findBone("tibia"), nullptr);
   EXPECT_EQ(c.findBone("patella"), nullptr);
@@ -63,7 +65,21 @@ TEST(TrialConfig, SaveThenLoadRoundTrip) {
   tibia.mesh = dir.file("models/tray.stl");
   tibia.articular_mesh = dir.file("models/insert.stl");
   c.bones = {femur, tibia};
-  c.joints = {{"knee", "femur", "tibia", "knee", true, false}};
+  io::JointConfig knee;
+  knee.name = "knee";
+  knee.parent = "femur";
+  knee.child = "tibia";
+  knee.ligaments_enabled = false;
+  knee.contact.measure = constraints::ContactMeasure::kPenetrationDepth;
+  knee.contact.weight = 7.5;
+  knee.contact.exponent = 1.0;
+  knee.contact.dead_band_mm = 0.5;
+  knee.contact.grid.spacing_m = 0.5e-3;
+  knee.contact.region.box =
+      Eigen::AlignedBox3d(Eigen::Vector3d(-0.04, -0.03, -0.04), Eigen::Vector3d(0.04, 0.0, 0.04));
+  knee.contact.region.normal = Eigen::Vector3d(0, -1, 0);
+  knee.contact.region.max_angle_deg = 80.0;
+  c.joints = {knee};
   io::saveTrialConfig(dir.file("trial.yaml"), c);
   const io::TrialConfig r = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_EQ(r.fixed_frame, "lab");
@@ -73,8 +89,42 @@ TEST(TrialConfig, SaveThenLoadRoundTrip) {
   ASSERT_TRUE(r.bones[0].initial_pose.has_value());
   EXPECT_TRUE(r.bones[0].initial_pose->matrix().isApprox(femur.initial_pose->matrix(), 1e-9));
   ASSERT_EQ(r.joints.size(), 1u);
-  EXPECT_TRUE(r.joints[0].contact_enabled);
+  const constraints::ContactSettings& contact = r.joints[0].contact;
+  EXPECT_TRUE(contact.enabled);
+  EXPECT_EQ(contact.measure, constraints::ContactMeasure::kPenetrationDepth);
+  EXPECT_DOUBLE_EQ(contact.weight, 7.5);
+  EXPECT_DOUBLE_EQ(contact.exponent, 1.0);
+  EXPECT_DOUBLE_EQ(contact.dead_band_mm, 0.5);
+  EXPECT_NEAR(contact.grid.spacing_m, 0.5e-3, 1e-12);
+  EXPECT_TRUE(contact.region.box.min().isApprox(knee.contact.region.box.min()));
+  EXPECT_TRUE(contact.region.box.max().isApprox(knee.contact.region.box.max()));
+  EXPECT_TRUE(contact.region.normal.isApprox(Eigen::Vector3d(0, -1, 0)));
+  EXPECT_DOUBLE_EQ(contact.region.max_angle_deg, 80.0);
   EXPECT_FALSE(r.joints[0].ligaments_enabled);
+}
+
+TEST(TrialConfig, ContactSectionIsCheckedAndMissingMeansDisabled) {
+  TempDir dir;
+  const std::string bones =
+      "bones:\n  - {name: femur, mesh: f.stl}\n  - {name: tibia, mesh: t.stl}\n";
+  test_support::writeText(dir.file("none.yaml"),
+                          bones + "joints:\n  - {name: knee, parent: femur, child: tibia}\n");
+  EXPECT_FALSE(io::loadTrialConfig(dir.file("none.yaml")).joints[0].contact.enabled);
+  test_support::writeText(dir.file("measure.yaml"),
+                          bones +
+                              "joints:\n  - {name: knee, parent: femur, child: tibia, "
+                              "contact: {measure: volume}}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("measure.yaml")), "quasi_volume");
+  test_support::writeText(dir.file("key.yaml"),
+                          bones +
+                              "joints:\n  - {name: knee, parent: femur, child: tibia, "
+                              "contact: {deadband_mm: 1}}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("key.yaml")), "unknown key 'deadband_mm'");
+  test_support::writeText(dir.file("box.yaml"),
+                          bones +
+                              "joints:\n  - {name: knee, parent: femur, child: tibia, "
+                              "contact: {region: {box_min_mm: [0, 0]}}}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("box.yaml")), "3 numbers");
 }
 
 TEST(TrialConfig, BadYamlNamesFileKeyAndLine) {
@@ -152,4 +202,18 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.registration.edges.max_distance_px, d.edges.max_distance_px);
   EXPECT_DOUBLE_EQ(c.registration.edges.auto_high_fraction, d.edges.auto_high_fraction);
   EXPECT_EQ(c.registration.edges.clahe, d.edges.clahe);
+  EXPECT_DOUBLE_EQ(c.registration.edges.line_distance_band_px, d.edges.line_distance_band_px);
+  EXPECT_EQ(c.registration.edge_offset_model, d.edge_offset_model);
+  EXPECT_DOUBLE_EQ(c.registration.edge_offset_prior_px, d.edge_offset_prior_px);
+  EXPECT_EQ(c.registration.contact_from_outer_iteration, d.contact_from_outer_iteration);
+  ASSERT_EQ(c.joints.size(), 1u);
+  const constraints::ContactSettings contact;
+  EXPECT_TRUE(c.joints[0].contact.enabled);
+  EXPECT_EQ(c.joints[0].contact.measure, contact.measure);
+  EXPECT_DOUBLE_EQ(c.joints[0].contact.weight, contact.weight);
+  EXPECT_DOUBLE_EQ(c.joints[0].contact.exponent, contact.exponent);
+  EXPECT_DOUBLE_EQ(c.joints[0].contact.dead_band_mm, contact.dead_band_mm);
+  EXPECT_NEAR(c.joints[0].contact.grid.spacing_m, contact.grid.spacing_m, 1e-12);
+  EXPECT_NEAR(c.joints[0].contact.grid.margin_m, contact.grid.margin_m, 1e-12);
+  EXPECT_NEAR(c.joints[0].contact.grid.exact_band_m, contact.grid.exact_band_m, 1e-12);
 }

@@ -72,6 +72,51 @@ TEST(Registrar, RecoversKnownPosesOnASimulatedFrame) {
   }
 }
 
+// The tibia starts pushed 2 mm up into the femoral component (and both bones off in other
+// ways). With contact the registrar ends with the surfaces touching, not interpenetrating, and
+// reports the contact figures.
+TEST(Registrar, ContactRelievesPenetrationAndIsReported) {
+  const Scene scene;
+  const auto& implants = scene.simulator.implants();
+  auto contact = std::make_shared<constraints::ArticularContact>(
+      implants.femoral_component, implants.tibial_insert, constraints::ContactSettings());
+  const registration::Registrar with_contact(scene.bones, registration::RegistrationSettings(),
+                                             {{"knee", 0, 1, contact}});
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const Eigen::Vector3d up = truth[1].linear().col(1);  // the tibia's superior axis
+  const std::vector<Pose> start = {offset(truth[0], {0.0005, 0.0, 0.0}, {0.01, 0.0, -0.01}),
+                                   offset(truth[1], 0.002 * up, {0.0, 0.02, 0.01})};
+  ASSERT_GT(contact->figures(start[0], start[1]).max_depth_m, 0.0015);
+  const registration::RegistrationResult result =
+      with_contact.solve({{scene.frame.images[0], scene.simulator.views()[0].camera}}, start);
+  ASSERT_EQ(result.contacts.size(), 1u);
+  EXPECT_LT(result.contacts[0].max_depth_m, 1e-4);
+  EXPECT_NEAR(result.contacts[0].max_depth_m,
+              contact->figures(result.poses[0], result.poses[1]).max_depth_m, 1e-12);
+  const Pose camera_from_fixed = scene.simulator.views()[0].camera.worldFromCamera().inverse();
+  for (int b = 0; b < 2; ++b) {
+    EXPECT_TRUE(registration::meetsSuccessCriterion(
+        registration::poseError(result.poses[b], truth[b], camera_from_fixed)))
+        << scene.bones[b].name;
+  }
+  // Edge offsets are estimated per bone and view, and stay small (a fraction of a pixel).
+  ASSERT_EQ(result.edge_offsets_px.size(), 2u);
+  for (const auto& per_view : result.edge_offsets_px) EXPECT_LT(std::abs(per_view[0]), 1.5);
+}
+
+TEST(Registrar, ContactPairsMustNameTwoBonesOfTheRegistrar) {
+  const Scene scene;
+  const auto& implants = scene.simulator.implants();
+  auto contact = std::make_shared<constraints::ArticularContact>(
+      implants.femoral_component, implants.tibial_insert, constraints::ContactSettings());
+  EXPECT_THROW_WITH(registration::Registrar(scene.bones, registration::RegistrationSettings(),
+                                            {{"knee", 0, 2, contact}}),
+                    "two different bones");
+  EXPECT_THROW_WITH(registration::Registrar(scene.bones, registration::RegistrationSettings(),
+                                            {{"knee", 1, 1, contact}}),
+                    "two different bones");
+}
+
 TEST(Registrar, ContourMetricIsSmallestNearTheTruthAndGrowsWithOffset) {
   const Scene scene;
   const auto& camera = scene.simulator.views()[0].camera;
@@ -80,10 +125,16 @@ TEST(Registrar, ContourMetricIsSmallestNearTheTruthAndGrowsWithOffset) {
     const Pose pose = offset(scene.frame.femur, {dx, 0.0, 0.0}, Eigen::Vector3d::Zero());
     const auto contour = scene.bones[0].silhouette->contour(map.camera(), pose, 1.0);
     std::vector<Eigen::Vector3d> points;
-    for (const auto& c : contour) points.push_back(pose * c.model_point);
-    const registration::ContourDistanceCost cost(&map, points, pose.translation(), 4.0, 1.0);
+    std::vector<Eigen::Vector2d> offset_directions;
+    for (const auto& c : contour) {
+      points.push_back(pose * c.model_point);
+      offset_directions.push_back(-c.normal);
+    }
+    const registration::ContourDistanceCost cost(&map, points, offset_directions,
+                                                 pose.translation(), 4.0, 1.0);
     const double zero[6] = {0, 0, 0, 0, 0, 0};
-    const double* parameters[1] = {zero};
+    const double no_offset = 0.0;
+    const double* parameters[2] = {zero, &no_offset};
     std::vector<double> residuals(points.size());
     cost.Evaluate(parameters, residuals.data(), nullptr);
     double sum = 0.0;
@@ -104,14 +155,21 @@ TEST(Registrar, AnalyticJacobianMatchesFiniteDifferences) {
   const Pose pose = offset(scene.frame.tibia, {0.0008, 0.0, 0.0}, Eigen::Vector3d::Zero());
   const auto contour = scene.bones[1].silhouette->contour(map.camera(), pose, 4.0);
   std::vector<Eigen::Vector3d> points;
-  for (const auto& c : contour) points.push_back(pose * c.model_point);
-  const registration::ContourDistanceCost cost(&map, points, pose.translation(), 4.0, 2.0);
+  std::vector<Eigen::Vector2d> offset_directions;
+  for (const auto& c : contour) {
+    points.push_back(pose * c.model_point);
+    offset_directions.push_back(-c.normal);
+  }
+  const registration::ContourDistanceCost cost(&map, points, offset_directions, pose.translation(),
+                                               4.0, 2.0);
   const double x[6] = {0.01, -0.02, 0.015, 0.0003, -0.0002, 0.0004};
-  const double* parameters[1] = {x};
+  const double edge_offset = 0.3;
+  const double* parameters[2] = {x, &edge_offset};
   const std::size_t n = points.size();
   std::vector<double> r0(n);
   std::vector<double> jac(6 * n);
-  double* jacobians[1] = {jac.data()};
+  std::vector<double> jac_offset(n);
+  double* jacobians[2] = {jac.data(), jac_offset.data()};
   ASSERT_TRUE(cost.Evaluate(parameters, r0.data(), jacobians));
   int compared = 0;
   int agreeing = 0;
@@ -125,8 +183,8 @@ TEST(Registrar, AnalyticJacobianMatchesFiniteDifferences) {
     xm[k] -= h;
     std::vector<double> rp(n);
     std::vector<double> rm(n);
-    const double* pp[1] = {xp};
-    const double* pm[1] = {xm};
+    const double* pp[2] = {xp, &edge_offset};
+    const double* pm[2] = {xm, &edge_offset};
     cost.Evaluate(pp, rp.data(), nullptr);
     cost.Evaluate(pm, rm.data(), nullptr);
     for (std::size_t i = 0; i < n; ++i) {
@@ -142,6 +200,25 @@ TEST(Registrar, AnalyticJacobianMatchesFiniteDifferences) {
   }
   ASSERT_GT(compared, 100);
   EXPECT_GT(agreeing, 0.9 * compared);
+  // The edge offset's column.
+  const double offset_plus = edge_offset + 1e-4;
+  const double offset_minus = edge_offset - 1e-4;
+  std::vector<double> rp(n);
+  std::vector<double> rm(n);
+  const double* pp[2] = {x, &offset_plus};
+  const double* pm[2] = {x, &offset_minus};
+  cost.Evaluate(pp, rp.data(), nullptr);
+  cost.Evaluate(pm, rm.data(), nullptr);
+  int offset_compared = 0;
+  int offset_agreeing = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double numeric = (rp[i] - rm[i]) / 2e-4;
+    if (std::abs(numeric) < 1e-3 && std::abs(jac_offset[i]) < 1e-3) continue;
+    ++offset_compared;
+    if (std::abs(numeric - jac_offset[i]) <= 0.1 * std::abs(numeric) + 1e-3) ++offset_agreeing;
+  }
+  ASSERT_GT(offset_compared, 20);
+  EXPECT_GT(offset_agreeing, 0.9 * offset_compared);
 }
 
 TEST(Registrar, PoseIncrementRotatesAboutTheCentre) {
