@@ -18,9 +18,10 @@ tools=build/devel/lib/fluoro_tracker
 "$tools/simulate_trial" --config config/simulate_knee.yaml --output "$out"
 echo
 "$tools/track_bag" --config "$out/trial.yaml" --bag "$out/trial.bag" --poses-csv "$out/poses.csv" \
-  --truth-csv "$out/ground_truth.csv" --overlay-dir "$out/overlay"
+  --truth-csv "$out/ground_truth.csv" --overlay-dir "$out/overlay" --contact-csv "$out/contact.csv"
 echo
-echo "demo: tracked poses in $out/poses.csv; contour overlays in $out/overlay/ (e.g. overlay_0030.png,"
+echo "demo: tracked poses in $out/poses.csv; knee contact per frame in $out/contact.csv;"
+echo "      contour overlays in $out/overlay/ (e.g. overlay_0030.png,"
 echo "      deepest flexion); simulated frames in $out/preview.png."
 echo "demo: inspect the bag with 'rosbag info $out/trial.bag', or replay it on a master with"
 echo "      'roslaunch fluoro_tracker play_trial.launch bag:=\$PWD/$out/trial.bag'."
