@@ -18,9 +18,11 @@ tools=build/devel/lib/fluoro_tracker
 "$tools/simulate_trial" --config config/simulate_knee.yaml --output "$out"
 echo
 "$tools/track_bag" --config "$out/trial.yaml" --bag "$out/trial.bag" --poses-csv "$out/poses.csv" \
-  --truth-csv "$out/ground_truth.csv" --overlay-dir "$out/overlay" --contact-csv "$out/contact.csv"
+  --truth-csv "$out/ground_truth.csv" --overlay-dir "$out/overlay" --contact-csv "$out/contact.csv" \
+  --kinematics-csv "$out/kinematics.csv"
 echo
-echo "demo: tracked poses in $out/poses.csv; knee contact per frame in $out/contact.csv;"
+echo "demo: tracked poses in $out/poses.csv; knee kinematics in $out/kinematics.csv; knee"
+echo "      contact per frame in $out/contact.csv;"
 echo "      contour overlays in $out/overlay/ (e.g. overlay_0030.png,"
 echo "      deepest flexion); simulated frames in $out/preview.png."
 echo "demo: inspect the bag with 'rosbag info $out/trial.bag', or replay it on a master with"

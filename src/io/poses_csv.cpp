@@ -13,23 +13,6 @@ namespace io {
 
 const char kPosesCsvHeader[] = "frame,stamp,bone,x_m,y_m,z_m,qx,qy,qz,qw,status";
 
-namespace {
-
-std::vector<std::string> splitCsv(const std::string& line) {
-  std::vector<std::string> fields;
-  std::stringstream in(line);
-  std::string field;
-  while (std::getline(in, field, ',')) fields.push_back(detail::trim(field));
-  if (!line.empty() && line.back() == ',') fields.emplace_back();
-  return fields;
-}
-
-bool isKnownStatus(const std::string& s) {
-  return s == "ok" || s == "suspect" || s == "lost";
-}
-
-}  // namespace
-
 std::vector<PoseRecord> readPosesCsv(const std::string& path) {
   const auto lines = detail::readTrimmedLines(path, "poses CSV");
   const std::string expected = kPosesCsvHeader;
@@ -41,7 +24,7 @@ std::vector<PoseRecord> readPosesCsv(const std::string& path) {
   for (std::size_t i = 1; i < lines.size(); ++i) {
     if (lines[i].empty()) continue;
     const std::string context = "poses CSV '" + path + "' line " + std::to_string(i + 1);
-    const auto f = splitCsv(lines[i]);
+    const auto f = detail::splitCsv(lines[i]);
     if (f.size() < 11) {
       throw InputError(context + ": expected 11 columns, found " + std::to_string(f.size()));
     }
@@ -66,7 +49,7 @@ std::vector<PoseRecord> readPosesCsv(const std::string& path) {
     }
     r.pose = geometry::makePose(q, t);
     r.status = f[10];
-    if (!isKnownStatus(r.status)) {
+    if (!detail::isTrackingStatus(r.status)) {
       throw InputError(context + ": status '" + r.status + "' is not ok, suspect or lost");
     }
     records.push_back(std::move(r));

@@ -56,6 +56,19 @@ std::vector<double> parseNumbers(const std::string& line, int expected,
   return values;
 }
 
+std::vector<std::string> splitCsv(const std::string& line) {
+  std::vector<std::string> fields;
+  std::stringstream in(line);
+  std::string field;
+  while (std::getline(in, field, ',')) fields.push_back(trim(field));
+  if (!line.empty() && line.back() == ',') fields.emplace_back();
+  return fields;
+}
+
+bool isTrackingStatus(const std::string& status) {
+  return status == "ok" || status == "suspect" || status == "lost";
+}
+
 }  // namespace detail
 }  // namespace io
 }  // namespace fluoro_tracker

@@ -1,6 +1,6 @@
 #pragma once
 
-// Small helpers shared by the line-oriented readers of io/ (JointTrack and MayaCam files).
+// Small helpers shared by the line-oriented readers of io/ (JointTrack, MayaCam, CSV files).
 
 #include <string>
 #include <vector>
@@ -18,6 +18,10 @@ std::vector<std::string> readTrimmedLines(const std::string& path, const std::st
 std::vector<double> parseNumbers(const std::string& line, int expected, const std::string& context);
 
 std::string trim(const std::string& text);
+// Comma-separated fields, each trimmed; a trailing comma gives a trailing empty field.
+std::vector<std::string> splitCsv(const std::string& line);
+// A tracking status as the CSVs write it: ok, suspect or lost.
+bool isTrackingStatus(const std::string& status);
 
 }  // namespace detail
 }  // namespace io

@@ -46,12 +46,26 @@ std::vector<double> numberList(const YAML::Node& node, const std::string& key, s
   return values;
 }
 
-bool enabledFlag(const YAML::Node& joint, const std::string& key, const std::string& context) {
-  const YAML::Node section = joint[key];
-  if (!section) return false;
-  if (!section.IsMap()) throw InputError(context + ": '" + key + "' must be a map");
-  if (!section["enabled"]) return true;
-  return required<bool>(section, "enabled", context + "." + key);
+// {position_m: [x, y, z], orientation_xyzw: [x, y, z, w]}
+geometry::Pose readPose(const YAML::Node& pose, const std::string& context) {
+  const auto p = numberList(pose, "position_m", 3, context);
+  const auto q = numberList(pose, "orientation_xyzw", 4, context);
+  const Eigen::Quaterniond rotation(q[3], q[0], q[1], q[2]);
+  if (std::abs(rotation.norm() - 1.0) > 1e-3) {
+    throw InputError(context + ": orientation_xyzw is not a unit quaternion");
+  }
+  return geometry::makePose(rotation.normalized(), Eigen::Vector3d(p[0], p[1], p[2]));
+}
+
+void writePose(YAML::Emitter* out, const std::string& key, const geometry::Pose& pose) {
+  const Eigen::Vector3d t = pose.translation();
+  const Eigen::Quaterniond q(pose.linear());
+  *out << YAML::Key << key << YAML::Value << YAML::BeginMap;
+  *out << YAML::Key << "position_m" << YAML::Value << YAML::Flow
+       << std::vector<double>{t.x(), t.y(), t.z()};
+  *out << YAML::Key << "orientation_xyzw" << YAML::Value << YAML::Flow
+       << std::vector<double>{q.x(), q.y(), q.z(), q.w()};
+  *out << YAML::EndMap;
 }
 
 // A joint's `contact:` section; absent: contact disabled.
@@ -108,6 +122,40 @@ constraints::ContactSettings readContactSettings(const YAML::Node& joint,
     throw InputError(context + ": " + e.what());
   }
   return c;
+}
+
+// A joint's `ligaments:` section; absent: springs disabled.
+constraints::LigamentSettings readLigamentSettings(const YAML::Node& joint,
+                                                   const std::string& context) {
+  constraints::LigamentSettings l;
+  const YAML::Node node = joint["ligaments"];
+  if (!node) {
+    l.enabled = false;
+    return l;
+  }
+  const YamlSection section(node, context + ".ligaments");
+  const auto& names = constraints::LigamentSettings::coordinateNames();
+  section.allowOnly({"enabled", names[0], names[1], names[2], names[3], names[4], names[5],
+                     "stiffness_per_deg", "stiffness_per_mm"});
+  section.read("enabled", &l.enabled);
+  for (int k = 0; k < 6; ++k) {
+    std::vector<double> bounds;
+    section.read(names[k], &bounds);
+    if (bounds.empty()) continue;
+    if (bounds.size() != 2) {
+      throw InputError(context + ".ligaments." + names[k] +
+                       " needs [lower, upper] (.inf or -.inf for none)");
+    }
+    l.bounds[k] = {bounds[0], bounds[1]};
+  }
+  section.read("stiffness_per_deg", &l.stiffness_per_deg);
+  section.read("stiffness_per_mm", &l.stiffness_per_mm);
+  try {
+    l.validate();
+  } catch (const InputError& e) {
+    throw InputError(context + ": " + e.what());
+  }
+  return l;
 }
 
 // The `registration:` section: solver schedule, robust scales and edge detection.
@@ -200,14 +248,10 @@ TrialConfig loadTrialConfig(const std::string& path) {
       bone.articular_mesh = resolvePath(base, required<std::string>(b, "articular_mesh", context));
     }
     if (const YAML::Node pose = b["initial_pose"]) {
-      const std::string pc = context + ".initial_pose";
-      const auto p = numberList(pose, "position_m", 3, pc);
-      const auto q = numberList(pose, "orientation_xyzw", 4, pc);
-      const Eigen::Quaterniond rotation(q[3], q[0], q[1], q[2]);
-      if (std::abs(rotation.norm() - 1.0) > 1e-3) {
-        throw InputError(pc + ": orientation_xyzw is not a unit quaternion");
-      }
-      bone.initial_pose = geometry::makePose(rotation, Eigen::Vector3d(p[0], p[1], p[2]));
+      bone.initial_pose = readPose(pose, context + ".initial_pose");
+    }
+    if (const YAML::Node frame = b["anatomical_frame"]) {
+      bone.anatomical_frame = readPose(frame, context + ".anatomical_frame");
     }
     config.bones.push_back(std::move(bone));
   }
@@ -234,7 +278,14 @@ TrialConfig loadTrialConfig(const std::string& path) {
         }
       }
       joint.contact = readContactSettings(j, context);
-      joint.ligaments_enabled = enabledFlag(j, "ligaments", context);
+      joint.ligaments = readLigamentSettings(j, context);
+      if (j["side"]) {
+        try {
+          joint.side = kinematics::sideFromName(required<std::string>(j, "side", context));
+        } catch (const InputError& e) {
+          throw InputError(context + ": " + e.what());
+        }
+      }
       config.joints.push_back(std::move(joint));
     }
   }
@@ -261,15 +312,9 @@ void saveTrialConfig(const std::string& path, const TrialConfig& config) {
     if (!bone.articular_mesh.empty()) {
       out << YAML::Key << "articular_mesh" << YAML::Value << relative(bone.articular_mesh);
     }
-    if (bone.initial_pose) {
-      const Eigen::Vector3d t = bone.initial_pose->translation();
-      const Eigen::Quaterniond q(bone.initial_pose->linear());
-      out << YAML::Key << "initial_pose" << YAML::Value << YAML::BeginMap;
-      out << YAML::Key << "position_m" << YAML::Value << YAML::Flow
-          << std::vector<double>{t.x(), t.y(), t.z()};
-      out << YAML::Key << "orientation_xyzw" << YAML::Value << YAML::Flow
-          << std::vector<double>{q.x(), q.y(), q.z(), q.w()};
-      out << YAML::EndMap;
+    if (bone.initial_pose) writePose(&out, "initial_pose", *bone.initial_pose);
+    if (!bone.anatomical_frame.isApprox(geometry::Pose::Identity())) {
+      writePose(&out, "anatomical_frame", bone.anatomical_frame);
     }
     out << YAML::EndMap;
   }
@@ -282,6 +327,7 @@ void saveTrialConfig(const std::string& path, const TrialConfig& config) {
       out << YAML::Key << "parent" << YAML::Value << joint.parent;
       out << YAML::Key << "child" << YAML::Value << joint.child;
       out << YAML::Key << "type" << YAML::Value << joint.type;
+      out << YAML::Key << "side" << YAML::Value << kinematics::sideName(joint.side);
       const constraints::ContactSettings& c = joint.contact;
       out << YAML::Key << "contact" << YAML::Value << YAML::BeginMap;
       out << YAML::Key << "enabled" << YAML::Value << c.enabled;
@@ -310,8 +356,16 @@ void saveTrialConfig(const std::string& path, const TrialConfig& config) {
         out << YAML::EndMap;
       }
       out << YAML::EndMap;
-      out << YAML::Key << "ligaments" << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key
-          << "enabled" << YAML::Value << joint.ligaments_enabled << YAML::EndMap;
+      const constraints::LigamentSettings& l = joint.ligaments;
+      out << YAML::Key << "ligaments" << YAML::Value << YAML::BeginMap;
+      out << YAML::Key << "enabled" << YAML::Value << l.enabled;
+      for (int k = 0; k < 6; ++k) {
+        out << YAML::Key << constraints::LigamentSettings::coordinateNames()[k] << YAML::Value
+            << YAML::Flow << std::vector<double>{l.bounds[k].lower, l.bounds[k].upper};
+      }
+      out << YAML::Key << "stiffness_per_deg" << YAML::Value << l.stiffness_per_deg;
+      out << YAML::Key << "stiffness_per_mm" << YAML::Value << l.stiffness_per_mm;
+      out << YAML::EndMap;
       out << YAML::EndMap;
     }
     out << YAML::EndSeq;

@@ -25,19 +25,30 @@ TrialModels loadTrialModels(const TrialConfig& config) {
     return -1;
   };
   for (const auto& joint : config.joints) {
-    if (!joint.contact.enabled) continue;
-    const int parent = index(joint.parent);
-    const int child = index(joint.child);
-    if (parent < 0 || child < 0) {
+    if (joint.type != "knee") {
+      throw InputError("joint '" + joint.name + "': type '" + joint.type +
+                       "' is not supported yet (knee only)");
+    }
+    registration::JointModel model;
+    model.name = joint.name;
+    model.parent = index(joint.parent);
+    model.child = index(joint.child);
+    if (model.parent < 0 || model.child < 0) {
       throw InputError("joint '" + joint.name + "' names a bone that is not in the trial");
     }
-    try {
-      models.contacts.push_back({joint.name, parent, child,
-                                 std::make_shared<constraints::ArticularContact>(
-                                     articular[parent], articular[child], joint.contact)});
-    } catch (const InputError& e) {
-      throw InputError("joint '" + joint.name + "': " + e.what());
+    model.side = joint.side;
+    model.parent_anatomical = config.bones[model.parent].anatomical_frame;
+    model.child_anatomical = config.bones[model.child].anatomical_frame;
+    model.ligaments = joint.ligaments;
+    if (joint.contact.enabled) {
+      try {
+        model.contact = std::make_shared<constraints::ArticularContact>(
+            articular[model.parent], articular[model.child], joint.contact);
+      } catch (const InputError& e) {
+        throw InputError("joint '" + joint.name + "': " + e.what());
+      }
     }
+    models.joints.push_back(std::move(model));
   }
   return models;
 }

@@ -12,6 +12,7 @@
 #include "fluoro_tracker/registration/contact_cost.h"
 #include "fluoro_tracker/registration/contour_distance_cost.h"
 #include "fluoro_tracker/registration/edge_to_contour_cost.h"
+#include "fluoro_tracker/registration/ligament_cost.h"
 #include "fluoro_tracker/registration/pose_increment.h"
 
 namespace fluoro_tracker {
@@ -191,20 +192,21 @@ void RegistrationSettings::validate() const {
 }
 
 Registrar::Registrar(std::vector<BoneModel> bones, RegistrationSettings settings,
-                     std::vector<ContactPair> contacts)
-    : bones_(std::move(bones)), settings_(std::move(settings)), contacts_(std::move(contacts)) {
+                     std::vector<JointModel> joints)
+    : bones_(std::move(bones)), settings_(std::move(settings)), joints_(std::move(joints)) {
   settings_.validate();
   for (const auto& bone : bones_) {
     if (!bone.silhouette) throw InputError("registration: bone '" + bone.name + "' has no model");
     centroids_.push_back(bone.silhouette->mesh().volumeCentroid());
   }
   const int bone_count = static_cast<int>(bones_.size());
-  for (const auto& pair : contacts_) {
-    if (pair.parent < 0 || pair.parent >= bone_count || pair.child < 0 ||
-        pair.child >= bone_count || pair.parent == pair.child || !pair.contact) {
-      throw InputError("registration: contact of joint '" + pair.joint +
-                       "' needs two different bones of this registrar and a contact model");
+  for (const auto& joint : joints_) {
+    if (joint.parent < 0 || joint.parent >= bone_count || joint.child < 0 ||
+        joint.child >= bone_count || joint.parent == joint.child) {
+      throw InputError("registration: joint '" + joint.name +
+                       "' needs two different bones of this registrar");
     }
+    if (joint.ligaments.enabled) joint.ligaments.validate();
   }
 }
 
@@ -306,17 +308,29 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
       // relieved first is relieved along the beam, where the image resists least.
       const bool with_contact =
           scale == settings_.scales.back() && outer >= settings_.contact_from_outer_iteration;
-      for (const auto& pair : contacts_) {
-        if (!with_contact) break;
-        if (result.diverged[pair.parent] || result.diverged[pair.child]) continue;
-        if (!problem.HasParameterBlock(increments[pair.parent].data()) ||
-            !problem.HasParameterBlock(increments[pair.child].data())) {
+      for (const auto& joint : joints_) {
+        if (result.diverged[joint.parent] || result.diverged[joint.child]) continue;
+        double* parent_increment = increments[joint.parent].data();
+        double* child_increment = increments[joint.child].data();
+        if (!problem.HasParameterBlock(parent_increment) ||
+            !problem.HasParameterBlock(child_increment)) {
           continue;
         }
-        problem.AddResidualBlock(
-            new ContactCost(pair.contact.get(), result.poses[pair.parent], centres[pair.parent],
-                            result.poses[pair.child], centres[pair.child]),
-            nullptr, increments[pair.parent].data(), increments[pair.child].data());
+        const geometry::Pose& parent_pose = result.poses[joint.parent];
+        const geometry::Pose& child_pose = result.poses[joint.child];
+        if (joint.contact && with_contact) {
+          problem.AddResidualBlock(
+              new ContactCost(joint.contact.get(), parent_pose, centres[joint.parent], child_pose,
+                              centres[joint.child]),
+              nullptr, parent_increment, child_increment);
+        }
+        if (joint.ligaments.enabled) {
+          problem.AddResidualBlock(
+              makeKneeLigamentCost(joint.ligaments, joint.side,
+                                   parent_pose * joint.parent_anatomical, centres[joint.parent],
+                                   child_pose * joint.child_anatomical, centres[joint.child]),
+              nullptr, parent_increment, child_increment);
+        }
       }
       if (problem.NumResidualBlocks() == 0) break;
 
@@ -363,9 +377,16 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
   for (auto& per_view : result.edge_offsets_px) {
     for (double& o : per_view) o /= previous_scale;
   }
-  for (const auto& pair : contacts_) {
-    result.contacts.push_back(
-        pair.contact->figures(result.poses[pair.parent], result.poses[pair.child], true));
+  for (const auto& joint : joints_) {
+    JointResult joint_result;
+    const geometry::Pose& parent_pose = result.poses[joint.parent];
+    const geometry::Pose& child_pose = result.poses[joint.child];
+    joint_result.coordinates = joint.coordinates(parent_pose, child_pose);
+    if (joint.contact) {
+      joint_result.has_contact = true;
+      joint_result.contact = joint.contact->figures(parent_pose, child_pose, true);
+    }
+    result.joints.push_back(joint_result);
   }
   return result;
 }

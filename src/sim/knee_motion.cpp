@@ -102,12 +102,13 @@ KneeFramePose kneePoseAt(const KneeMotionSettings& s, int index, const KneeConta
   const double adduction = s.adduction_amplitude_deg * std::sin(4.0 * M_PI * progress);
   out.shank_inclination_deg = s.shank_inclination_ratio * out.flexion_deg;
 
-  // Femur orientation in the tibia frame: flexion tilts the femoral shaft anteriorly (rotation
-  // about the medial-lateral axis, -Z), internal rotation of the tibia is external rotation of
-  // the femur about the tibial long axis, adduction about the anterior axis.
+  // Femur orientation in the tibia frame, the inverse of the Grood & Suntay sequence of
+  // kinematics::KneeCoordinates (tibia in femur = Rz(-flexion) Rx(adduction) Ry(internal)): in
+  // flexion the femoral shaft tilts posteriorly over the tibia (+Z), so the posterior condyles
+  // come down onto the insert.
   const Eigen::Matrix3d rotation = geometry::rotationY(-geometry::degToRad(internal_rotation)) *
-                                   geometry::rotationX(geometry::degToRad(adduction)) *
-                                   geometry::rotationZ(-geometry::degToRad(out.flexion_deg));
+                                   geometry::rotationX(-geometry::degToRad(adduction)) *
+                                   geometry::rotationZ(geometry::degToRad(out.flexion_deg));
   const geometry::Pose pose =
       geometry::makePose(rotation, Eigen::Vector3d(-1e-3 * rollback_mm, 0.0, 0.0));
   out.tibia_from_femur = contact.settle(pose);

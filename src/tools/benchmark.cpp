@@ -185,34 +185,55 @@ struct Condition {
   std::string name;
   bool contact = false;
   bool keep_in_contact = false;
+  bool ligaments = false;
 };
 
-// Contact between the femoral component and the tibial insert as the simulator builds them.
-std::vector<registration::ContactPair> kneeContact(const geometry::Mesh& femoral_component,
-                                                   const geometry::Mesh& insert,
-                                                   const constraints::ContactSettings& settings,
-                                                   bool keep_in_contact) {
-  std::vector<registration::ContactPair> pairs = {
-      {"knee", 0, 1,
-       std::make_shared<constraints::ArticularContact>(femoral_component, insert, settings)}};
-  if (keep_in_contact) {
+// The knee joint between the simulator's femoral component (bone 0) and tibial tray (bone 1):
+// contact of the femoral component with the insert, and optionally a stay-in-contact term.
+registration::JointModel kneeJoint(const geometry::Mesh& femoral_component,
+                                   const geometry::Mesh& insert,
+                                   const constraints::ContactSettings& settings,
+                                   const constraints::LigamentSettings& ligaments,
+                                   const Condition& condition) {
+  registration::JointModel knee;
+  knee.name = "knee";
+  knee.parent = 0;
+  knee.child = 1;
+  knee.ligaments = ligaments;
+  knee.ligaments.enabled = condition.ligaments;
+  if (condition.contact) {
+    knee.contact =
+        std::make_shared<constraints::ArticularContact>(femoral_component, insert, settings);
+  }
+  return knee;
+}
+
+std::vector<registration::JointModel> kneeJoints(const geometry::Mesh& femoral_component,
+                                                 const geometry::Mesh& insert,
+                                                 const constraints::ContactSettings& settings,
+                                                 const constraints::LigamentSettings& ligaments,
+                                                 const Condition& condition) {
+  if (!condition.contact && !condition.ligaments) return {};
+  std::vector<registration::JointModel> joints = {
+      kneeJoint(femoral_component, insert, settings, ligaments, condition)};
+  if (condition.keep_in_contact) {
     constraints::ContactSettings separation = settings;
     separation.measure = constraints::ContactMeasure::kSeparation;
     separation.exponent = 1.0;
     separation.dead_band_mm = 0.0;
-    separation.weight = 20.0;
-    pairs.push_back(
-        {"knee", 0, 1,
-         std::make_shared<constraints::ArticularContact>(femoral_component, insert, separation)});
+    Condition contact_only = condition;
+    contact_only.ligaments = false;
+    joints.push_back(kneeJoint(femoral_component, insert, separation, ligaments, contact_only));
   }
-  return pairs;
+  return joints;
 }
 
 void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool ideal_images,
                   const Perturbation& perturbation,
                   const registration::RegistrationSettings& settings,
                   const std::vector<Condition>& conditions,
-                  const constraints::ContactSettings& contact_settings) {
+                  const constraints::ContactSettings& contact_settings,
+                  const constraints::LigamentSettings& ligament_settings) {
   std::vector<Tally> tallies(conditions.size());
   std::mt19937_64 rng(seed);
   for (int trial = 0; trial < trials; ++trial) {
@@ -237,9 +258,8 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
       registrars.push_back(std::make_unique<registration::Registrar>(
           boneModels({&implants.femoral_component, &implants.tibial_tray}, {"femur", "tibia"}),
           settings,
-          condition.contact ? kneeContact(implants.femoral_component, implants.tibial_insert,
-                                          contact_settings, condition.keep_in_contact)
-                            : std::vector<registration::ContactPair>{}));
+          kneeJoints(implants.femoral_component, implants.tibial_insert, contact_settings,
+                     ligament_settings, condition)));
     }
     // Measures penetration at every result, with or without contact in the registration.
     const constraints::ArticularContact penetration_probe(implants.femoral_component,
@@ -355,6 +375,7 @@ int main(int argc, char** argv) {
   std::vector<double> scales;
   std::string conditions_option = "image,contact";
   std::string edge_offset_model = "uniform";
+  constraints::LigamentSettings ligaments;
   std::string contact_measure = "quasi_volume";
   constraints::ContactSettings contact;
   options.add_options()("help,h", "show this help")(
@@ -391,13 +412,17 @@ int main(int argc, char** argv) {
       "prior sigma of each bone's edge offset, pixels")(
       "ideal", "simulate without anatomy and noise (isolates the method from image clutter)")(
       "conditions", po::value(&conditions_option)->default_value(conditions_option),
-      "comma-separated: image (image terms only), contact (image + articular contact)")(
+      "comma-separated: image (image terms only), contact (image + articular contact), "
+      "contact+separation, ligaments, contact+ligaments")(
       "contact-measure", po::value(&contact_measure)->default_value(contact_measure),
       "penetration_depth, penetration_area, quasi_volume, elastic_energy or separation")(
       "contact-weight", po::value(&contact.weight)->default_value(contact.weight),
       "weight of the contact residual")(
       "contact-exponent", po::value(&contact.exponent)->default_value(contact.exponent),
       "the residual is weight x measure^exponent")(
+      "ligament-stiffness",
+      po::value(&ligaments.stiffness_per_deg)->default_value(ligaments.stiffness_per_deg),
+      "ligament springs: residual per degree (and per mm) outside the knee envelope")(
       "contact-dead-band-mm", po::value(&contact.dead_band_mm)->default_value(contact.dead_band_mm),
       "penetration allowed without cost");
   po::variables_map vm;
@@ -417,6 +442,8 @@ int main(int argc, char** argv) {
     contact.measure = constraints::contactMeasureFromName(contact_measure);
     settings.edge_offset_model = registration::edgeOffsetModelFromName(edge_offset_model);
     contact.validate();
+    ligaments.stiffness_per_mm = ligaments.stiffness_per_deg;
+    ligaments.validate();
     std::vector<Condition> conditions;
     std::stringstream list(conditions_option);
     for (std::string name; std::getline(list, name, ',');) {
@@ -427,13 +454,19 @@ int main(int argc, char** argv) {
       } else if (name == "contact+separation") {
         conditions.push_back(
             {"image + contact (" + contact_measure + ") + separation", true, true});
+      } else if (name == "ligaments") {
+        conditions.push_back({"image + ligaments", false, false, true});
+      } else if (name == "contact+ligaments") {
+        conditions.push_back(
+            {"image + contact (" + contact_measure + ") + ligaments", true, false, true});
       } else {
-        throw InputError("--conditions: unknown condition '" + name + "' (image, contact)");
+        throw InputError("--conditions: unknown condition '" + name +
+                         "' (image, contact, contact+separation, ligaments, contact+ligaments)");
       }
     }
     if (!vm.count("skip-simulated")) {
       runSimulated(trials, frames, views, seed, vm.count("ideal") > 0, perturbation, settings,
-                   conditions, contact);
+                   conditions, contact, ligaments);
     }
     if (!kneel_dir.empty()) runKneel(kneel_dir, kneel_starts, seed, settings);
     return 0;

@@ -15,6 +15,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/io/jts_file.h"
+#include "fluoro_tracker/io/kinematics_csv.h"
 #include "fluoro_tracker/io/poses_csv.h"
 #include "fluoro_tracker/io/trial_config.h"
 #include "fluoro_tracker/io/trial_models.h"
@@ -58,21 +60,24 @@ int main(int argc, char** argv) {
   po::options_description options(
       "track_bag: track bones through a fluoroscopy bag (no ROS master needed)\n\nOptions");
   std::string config_path, bag_path, poses_path, kinematics_path, out_bag, init_path, truth_path,
-      overlay_dir, contact_path;
+      overlay_dir, contact_path, jts_dir;
   std::vector<std::string> image_topics;
   int overlay_every = 10;
   options.add_options()("help,h", "show this help")("config", po::value(&config_path)->required(),
                                                     "trial YAML")(
       "bag", po::value(&bag_path)->required(), "input bag")(
       "poses-csv", po::value(&poses_path)->required(), "output poses CSV")(
-      "kinematics-csv", po::value(&kinematics_path), "joint kinematics CSV (not available yet)")(
-      "out-bag", po::value(&out_bag), "output bag (not available yet)")(
+      "kinematics-csv", po::value(&kinematics_path),
+      "joint kinematics CSV (knee: Grood & Suntay; see README)")("out-bag", po::value(&out_bag),
+                                                                 "output bag (not available yet)")(
       "init-csv", po::value(&init_path),
       "per-frame starting poses (poses CSV); each frame on its own")(
       "image-topic", po::value(&image_topics)->multitoken(),
       "image topic(s); default: all in the bag")("truth-csv", po::value(&truth_path),
                                                  "ground-truth poses CSV: print the accuracy")(
       "overlay-dir", po::value(&overlay_dir), "write contour overlays (PNG) here")(
+      "jts-dir", po::value(&jts_dir),
+      "also write each bone's poses as JointTrack <bone>.jts (first view's camera frame)")(
       "contact-csv", po::value(&contact_path),
       "per joint and frame: collision, penetration depth, area, quasi-volume, gap")(
       "overlay-every", po::value(&overlay_every)->default_value(overlay_every),
@@ -89,9 +94,9 @@ int main(int argc, char** argv) {
     std::cerr << "track_bag: " << e.what() << "\n" << options << "\n";
     return 2;
   }
-  if (!kinematics_path.empty() || !out_bag.empty()) {
-    std::cerr << "track_bag: error: --kinematics-csv and --out-bag are not implemented yet "
-                 "(joint kinematics and bag output are still to come)\n";
+  if (!out_bag.empty()) {
+    std::cerr << "track_bag: error: --out-bag is not implemented yet (bag output comes with the "
+                 "tracking node)\n";
     return 2;
   }
 
@@ -99,7 +104,8 @@ int main(int argc, char** argv) {
     const io::TrialConfig config = io::loadTrialConfig(config_path);
     const io::TrialModels models = io::loadTrialModels(config);
     const std::vector<registration::BoneModel>& bones = models.bones;
-    const registration::Registrar registrar(models.bones, config.registration, models.contacts);
+    const registration::Registrar registrar(models.bones, config.registration, models.joints);
+    std::vector<io::KinematicsRecord> kinematics;
     std::ofstream contact_csv;
     if (!contact_path.empty()) {
       contact_csv.open(contact_path);
@@ -134,6 +140,9 @@ int main(int argc, char** argv) {
       if (bone.initial_pose) previous.push_back(*bone.initial_pose);
     }
     std::vector<io::PoseRecord> records;
+    std::vector<std::string> missing_guesses;
+    // Per bone: frame -> pose in the first view's optical frame (for --jts-dir).
+    std::vector<std::map<int, Pose>> camera_poses(bones.size());
     Accuracy accuracy;
     int tracked = 0, skipped = 0, flagged = 0;
     const bool interactive = isatty(STDOUT_FILENO);
@@ -147,8 +156,13 @@ int main(int argc, char** argv) {
             if (!init_path.empty()) {
               const auto it = guesses.find({frame.index, bones[b].name});
               if (it == guesses.end()) {
-                throw InputError("--init-csv has no pose for bone '" + bones[b].name +
-                                 "' at frame " + std::to_string(frame.index));
+                // Skip this frame, keep every other: the error is reported at the end.
+                missing_guesses.push_back("--init-csv has no pose for bone '" + bones[b].name +
+                                          "' at frame " + std::to_string(frame.index));
+                std::cerr << "track_bag: skipped frame " << frame.index << ": "
+                          << missing_guesses.back() << "\n";
+                ++skipped;
+                return;
               }
               guess[b] = it->second;
             } else if (before_previous.size() == bones.size()) {
@@ -178,15 +192,29 @@ int main(int argc, char** argv) {
             records.push_back({frame.index, frame.stamp_s, bones[b].name, result.poses[b], status});
           }
           flagged += frame_flagged ? 1 : 0;
-          if (contact_csv.is_open()) {
-            for (std::size_t j = 0; j < result.contacts.size(); ++j) {
-              const auto& c = result.contacts[j];
+          const Pose camera_from_fixed = frame.cameras[0].worldFromCamera().inverse();
+          for (std::size_t b = 0; b < bones.size(); ++b) {
+            if (!result.diverged[b])
+              camera_poses[b][frame.index] = camera_from_fixed * result.poses[b];
+          }
+          for (std::size_t j = 0; j < registrar.joints().size(); ++j) {
+            const auto& joint = registrar.joints()[j];
+            // A frame whose solve failed has no joint results: its kinematics come from the
+            // poses it reports.
+            const auto coordinates =
+                j < result.joints.size()
+                    ? result.joints[j].coordinates
+                    : joint.coordinates(result.poses[joint.parent], result.poses[joint.child]);
+            const bool lost = result.diverged[joint.parent] || result.diverged[joint.child];
+            kinematics.push_back(
+                {frame.index, frame.stamp_s, joint.name, coordinates, lost ? "lost" : "ok"});
+            if (contact_csv.is_open() && j < result.joints.size() && result.joints[j].has_contact) {
+              const auto& c = result.joints[j].contact;
               contact_csv << frame.index << "," << std::fixed << std::setprecision(6)
-                          << frame.stamp_s << "," << registrar.contacts()[j].joint << ","
-                          << (c.in_collision ? 1 : 0) << "," << std::setprecision(4)
-                          << c.max_depth_m * 1e3 << "," << c.area_m2 * 1e6 << ","
-                          << c.quasi_volume_m3 * 1e9 << "," << c.min_distance_m * 1e3 << ","
-                          << c.penalty << "\n";
+                          << frame.stamp_s << "," << joint.name << "," << (c.in_collision ? 1 : 0)
+                          << "," << std::setprecision(4) << c.max_depth_m * 1e3 << ","
+                          << c.area_m2 * 1e6 << "," << c.quasi_volume_m3 * 1e9 << ","
+                          << c.min_distance_m * 1e3 << "," << c.penalty << "\n";
             }
           }
           ++tracked;
@@ -226,6 +254,20 @@ int main(int argc, char** argv) {
         });
     if (interactive) std::cout << "\n";
     io::writePosesCsv(poses_path, records);
+    if (!kinematics_path.empty()) io::writeKinematicsCsv(kinematics_path, kinematics);
+    if (!jts_dir.empty()) {
+      std::filesystem::create_directories(jts_dir);
+      const int frames = static_cast<int>(reader.expectedFrames());
+      for (std::size_t b = 0; b < bones.size(); ++b) {
+        // Frames skipped or lost are NOT_OPTIMIZED rows, as JointTrack writes them.
+        io::JtsPoses poses(static_cast<std::size_t>(frames));
+        for (const auto& [index, pose] : camera_poses[b]) {
+          if (index >= frames) poses.resize(static_cast<std::size_t>(index) + 1);
+          poses[static_cast<std::size_t>(index)] = io::jointTrackFromOptical(pose);
+        }
+        io::writeJtsFile(jts_dir + "/" + bones[b].name + ".jts", poses);
+      }
+    }
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::cout << "track_bag: " << tracked + skipped << " frame(s), " << tracked << " tracked, "
@@ -242,6 +284,13 @@ int main(int argc, char** argv) {
                 << rms[0] << " mm, ty " << rms[1] << " mm, tz (along the beam) " << rms[2]
                 << " mm, rx " << rms[3] << " deg, ry " << rms[4] << " deg, rz " << rms[5]
                 << " deg\n";
+    }
+    if (!missing_guesses.empty()) {
+      std::cerr << "track_bag: error: " << missing_guesses.front();
+      if (missing_guesses.size() > 1)
+        std::cerr << " (and " << missing_guesses.size() - 1 << " more)";
+      std::cerr << "; those frames were skipped, the others written\n";
+      return 1;
     }
     return 0;
   } catch (const std::exception& e) {

@@ -5,8 +5,10 @@
 #include <vector>
 
 #include "fluoro_tracker/constraints/articular_contact.h"
+#include "fluoro_tracker/constraints/ligament_envelope.h"
 #include "fluoro_tracker/geometry/length_unit.h"
 #include "fluoro_tracker/geometry/pose.h"
+#include "fluoro_tracker/kinematics/knee_coordinates.h"
 #include "fluoro_tracker/registration/registrar.h"
 
 namespace fluoro_tracker {
@@ -22,17 +24,23 @@ struct BoneConfig {
   // Pose of the bone frame in fixed_frame at the first frame (metres); none: find it
   // automatically.
   std::optional<geometry::Pose> initial_pose;
+  // The bone's anatomical frame (ISB: X anterior, Y superior, Z right) in its mesh frame, for
+  // joint kinematics; identity when the mesh is already in anatomical axes.
+  geometry::Pose anatomical_frame = geometry::Pose::Identity();
 };
 
 struct JointConfig {
   std::string name;
   std::string parent;
   std::string child;
-  std::string type = "knee";
+  std::string type = "knee";  // the joint coordinate system (knee: Grood & Suntay)
+  kinematics::Side side = kinematics::Side::kRight;
   // Articular contact between the parent's surface and the child's (articular_mesh, or the
   // image mesh when none is given). A joint without a `contact:` section has it disabled.
   constraints::ContactSettings contact;
-  bool ligaments_enabled = true;
+  // Ligament-like springs on the joint coordinates. A joint without a `ligaments:` section has
+  // them disabled.
+  constraints::LigamentSettings ligaments;
 };
 
 // The trial YAML of docs/interfaces.md. Later layers add their own typed sections.

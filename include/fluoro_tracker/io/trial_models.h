@@ -10,13 +10,15 @@ namespace fluoro_tracker {
 namespace io {
 
 // What a trial's registration needs from its files: each bone's image model and each joint's
-// contact model (built once: signed distance grids and BVHs), in the order of the config.
+// model (anatomical frames, contact model built once: signed distance grid and BVHs, ligament
+// springs), in the order of the config.
 struct TrialModels {
   std::vector<registration::BoneModel> bones;
-  std::vector<registration::ContactPair> contacts;  // joints with contact enabled
+  std::vector<registration::JointModel> joints;
 };
 
-// Loads every mesh the config names. Throws InputError naming the bone or joint and the file.
+// Loads every mesh the config names. Throws InputError naming the bone or joint and the file,
+// or a joint type other than knee (the only joint coordinate system built so far).
 TrialModels loadTrialModels(const TrialConfig& config);
 
 }  // namespace io

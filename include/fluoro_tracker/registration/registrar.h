@@ -7,10 +7,12 @@
 #include <opencv2/core.hpp>
 
 #include "fluoro_tracker/constraints/articular_contact.h"
+#include "fluoro_tracker/constraints/ligament_envelope.h"
 #include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/geometry/xray_camera.h"
 #include "fluoro_tracker/imaging/edge_map.h"
 #include "fluoro_tracker/imaging/silhouette.h"
+#include "fluoro_tracker/kinematics/knee_coordinates.h"
 
 namespace fluoro_tracker {
 namespace registration {
@@ -69,12 +71,32 @@ struct BoneModel {
   double image_weight = 1.0;
 };
 
-// Articular contact between two of the registrar's bones (indices into its bone list).
-struct ContactPair {
-  std::string joint;
+// A joint between two of the registrar's bones (indices into its bone list): its anatomical
+// frames, and the constraint terms it adds to the registration.
+struct JointModel {
+  std::string name;
   int parent = -1;
   int child = -1;
-  std::shared_ptr<const constraints::ArticularContact> contact;
+  kinematics::Side side = kinematics::Side::kRight;
+  // Each bone's anatomical frame in its mesh frame (identity: the mesh frame is anatomical).
+  geometry::Pose parent_anatomical = geometry::Pose::Identity();
+  geometry::Pose child_anatomical = geometry::Pose::Identity();
+  std::shared_ptr<const constraints::ArticularContact> contact;  // none: no contact term
+  constraints::LigamentSettings ligaments;                       // enabled = false: no springs
+
+  // The knee coordinates (kinematics::kneeCoordinates) of bones at these mesh-frame poses.
+  kinematics::KneeCoordinates coordinates(const geometry::Pose& parent_pose,
+                                          const geometry::Pose& child_pose) const {
+    return kinematics::kneeCoordinates(parent_pose * parent_anatomical,
+                                       child_pose * child_anatomical, side);
+  }
+};
+
+// A joint at the result: its coordinates and, if it has a contact term, the contact figures.
+struct JointResult {
+  kinematics::KneeCoordinates coordinates;
+  bool has_contact = false;
+  constraints::ContactFigures contact;
 };
 
 struct RegistrationResult {
@@ -90,23 +112,23 @@ struct RegistrationResult {
   // outside the image) or beyond the plausible distance from its start; it was kept at its
   // last valid pose and not moved further.
   std::vector<bool> diverged;
-  // Per contact pair, at the final poses.
-  std::vector<constraints::ContactFigures> contacts;
+  // Per joint of the registrar, at the final poses.
+  std::vector<JointResult> joints;
 };
 
 // Registers all bones of one frame jointly, in any number of views, from starting poses: the
-// dissertation's contour-distance metric minimised with Ceres, coarse to fine, plus articular
-// contact penalties between pairs of bones (dissertation ch. 3), whose two bones are then
-// solved together.
+// dissertation's contour-distance metric minimised with Ceres, coarse to fine, plus each
+// joint's articular contact penalty (dissertation ch. 3) and ligament-like springs (ch. 4),
+// which tie the joint's two bones into one solve.
 class Registrar {
  public:
-  // Throws InputError for a bone without a model or a contact pair naming a missing bone.
+  // Throws InputError for a bone without a model or a joint naming a missing bone.
   Registrar(std::vector<BoneModel> bones, RegistrationSettings settings,
-            std::vector<ContactPair> contacts = {});
+            std::vector<JointModel> joints = {});
 
   const std::vector<BoneModel>& bones() const { return bones_; }
   const RegistrationSettings& settings() const { return settings_; }
-  const std::vector<ContactPair>& contacts() const { return contacts_; }
+  const std::vector<JointModel>& joints() const { return joints_; }
 
   // Throws InputError for a wrong number of poses, no views, non-finite poses, or bad images.
   RegistrationResult solve(const std::vector<ViewImage>& views,
@@ -115,7 +137,7 @@ class Registrar {
  private:
   std::vector<BoneModel> bones_;
   RegistrationSettings settings_;
-  std::vector<ContactPair> contacts_;
+  std::vector<JointModel> joints_;
   std::vector<Eigen::Vector3d> centroids_;  // per bone, mesh frame: the rotation centres
 };
 

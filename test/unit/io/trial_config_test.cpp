@@ -1,5 +1,6 @@
 #include "fluoro_tracker/io/trial_config.h"
 
+#include <cmath>
 #include <filesystem>
 
 #include "../test_support.h"
@@ -46,7 +47,7 @@ joints:
   EXPECT_TRUE(c.joints[0].contact.enabled);
   EXPECT_DOUBLE_EQ(c.joints[0].contact.dead_band_mm, 1.0);
   EXPECT_EQ(c.joints[0].contact.measure, constraints::ContactSettings().measure);
-  EXPECT_FALSE(c.joints[0].ligaments_enabled);
+  EXPECT_FALSE(c.joints[0].ligaments.enabled);
   EXPECT_NE(c.findBone("tibia"), nullptr);
   EXPECT_EQ(c.findBone("patella"), nullptr);
 }
@@ -64,12 +65,16 @@ TEST(TrialConfig, SaveThenLoadRoundTrip) {
   tibia.name = "tibia";
   tibia.mesh = dir.file("models/tray.stl");
   tibia.articular_mesh = dir.file("models/insert.stl");
+  tibia.anatomical_frame =
+      geometry::makePose(geometry::rotationY(0.1), Eigen::Vector3d(0.0, -0.002, 0.001));
   c.bones = {femur, tibia};
   io::JointConfig knee;
   knee.name = "knee";
   knee.parent = "femur";
   knee.child = "tibia";
-  knee.ligaments_enabled = false;
+  knee.side = kinematics::Side::kLeft;
+  knee.ligaments.bounds[1] = {-4.0, 5.0};
+  knee.ligaments.stiffness_per_mm = 3.5;
   knee.contact.measure = constraints::ContactMeasure::kPenetrationDepth;
   knee.contact.weight = 7.5;
   knee.contact.exponent = 1.0;
@@ -86,6 +91,8 @@ TEST(TrialConfig, SaveThenLoadRoundTrip) {
   ASSERT_EQ(r.bones.size(), 2u);
   EXPECT_EQ(r.bones[0].mesh, femur.mesh);
   EXPECT_EQ(r.bones[1].articular_mesh, tibia.articular_mesh);
+  EXPECT_TRUE(r.bones[1].anatomical_frame.matrix().isApprox(tibia.anatomical_frame.matrix(), 1e-9));
+  EXPECT_TRUE(r.bones[0].anatomical_frame.matrix().isIdentity());
   ASSERT_TRUE(r.bones[0].initial_pose.has_value());
   EXPECT_TRUE(r.bones[0].initial_pose->matrix().isApprox(femur.initial_pose->matrix(), 1e-9));
   ASSERT_EQ(r.joints.size(), 1u);
@@ -100,7 +107,12 @@ TEST(TrialConfig, SaveThenLoadRoundTrip) {
   EXPECT_TRUE(contact.region.box.max().isApprox(knee.contact.region.box.max()));
   EXPECT_TRUE(contact.region.normal.isApprox(Eigen::Vector3d(0, -1, 0)));
   EXPECT_DOUBLE_EQ(contact.region.max_angle_deg, 80.0);
-  EXPECT_FALSE(r.joints[0].ligaments_enabled);
+  EXPECT_EQ(r.joints[0].side, kinematics::Side::kLeft);
+  EXPECT_TRUE(r.joints[0].ligaments.enabled);
+  EXPECT_DOUBLE_EQ(r.joints[0].ligaments.bounds[1].lower, -4.0);
+  EXPECT_DOUBLE_EQ(r.joints[0].ligaments.bounds[1].upper, 5.0);
+  EXPECT_TRUE(std::isinf(r.joints[0].ligaments.bounds[4].upper));  // distraction free
+  EXPECT_DOUBLE_EQ(r.joints[0].ligaments.stiffness_per_mm, 3.5);
 }
 
 TEST(TrialConfig, ContactSectionIsCheckedAndMissingMeansDisabled) {
@@ -216,4 +228,13 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_NEAR(c.joints[0].contact.grid.spacing_m, contact.grid.spacing_m, 1e-12);
   EXPECT_NEAR(c.joints[0].contact.grid.margin_m, contact.grid.margin_m, 1e-12);
   EXPECT_NEAR(c.joints[0].contact.grid.exact_band_m, contact.grid.exact_band_m, 1e-12);
+  const constraints::LigamentSettings ligaments;
+  EXPECT_TRUE(c.joints[0].ligaments.enabled);
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_EQ(c.joints[0].ligaments.bounds[k].lower, ligaments.bounds[k].lower) << k;
+    EXPECT_EQ(c.joints[0].ligaments.bounds[k].upper, ligaments.bounds[k].upper) << k;
+  }
+  EXPECT_DOUBLE_EQ(c.joints[0].ligaments.stiffness_per_deg, ligaments.stiffness_per_deg);
+  EXPECT_DOUBLE_EQ(c.joints[0].ligaments.stiffness_per_mm, ligaments.stiffness_per_mm);
+  EXPECT_EQ(c.joints[0].side, kinematics::Side::kRight);
 }

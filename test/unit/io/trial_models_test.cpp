@@ -43,14 +43,21 @@ TEST(TrialModels, BuildsImageModelsAndContactFromTheArticularMesh) {
   // The tibia's image model is the tray; its contact surface is the insert.
   EXPECT_EQ(models.bones[1].silhouette->mesh().triangleCount(),
             sim::makeKneeImplants().tibial_tray.triangleCount());
-  ASSERT_EQ(models.contacts.size(), 1u);
-  EXPECT_EQ(models.contacts[0].joint, "knee");
-  EXPECT_EQ(models.contacts[0].parent, 0);
-  EXPECT_EQ(models.contacts[0].child, 1);
+  ASSERT_EQ(models.joints.size(), 1u);
+  EXPECT_EQ(models.joints[0].name, "knee");
+  EXPECT_EQ(models.joints[0].parent, 0);
+  EXPECT_EQ(models.joints[0].child, 1);
+  ASSERT_TRUE(models.joints[0].contact);
   // The grid covers the insert (10 mm thick) plus its margins, not the tray's 40 mm stem.
-  EXPECT_LT(models.contacts[0].contact->grid().box().sizes().y(), 0.035);
+  EXPECT_LT(models.joints[0].contact->grid().box().sizes().y(), 0.035);
 
-  EXPECT_TRUE(io::loadTrialModels(kneeTrial(dir, false)).contacts.empty());
+  const io::TrialModels without = io::loadTrialModels(kneeTrial(dir, false));
+  ASSERT_EQ(without.joints.size(), 1u);
+  EXPECT_FALSE(without.joints[0].contact);
+
+  io::TrialConfig ankle = kneeTrial(dir, false);
+  ankle.joints[0].type = "ankle";
+  EXPECT_THROW_WITH(io::loadTrialModels(ankle), "not supported yet");
 }
 
 TEST(TrialModels, AnOpenArticularSurfaceIsRejectedNamingTheFile) {

@@ -80,8 +80,14 @@ TEST(Registrar, ContactRelievesPenetrationAndIsReported) {
   const auto& implants = scene.simulator.implants();
   auto contact = std::make_shared<constraints::ArticularContact>(
       implants.femoral_component, implants.tibial_insert, constraints::ContactSettings());
+  registration::JointModel knee;
+  knee.name = "knee";
+  knee.parent = 0;
+  knee.child = 1;
+  knee.ligaments.enabled = false;
+  knee.contact = contact;
   const registration::Registrar with_contact(scene.bones, registration::RegistrationSettings(),
-                                             {{"knee", 0, 1, contact}});
+                                             {knee});
   const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
   const Eigen::Vector3d up = truth[1].linear().col(1);  // the tibia's superior axis
   const std::vector<Pose> start = {offset(truth[0], {0.0005, 0.0, 0.0}, {0.01, 0.0, -0.01}),
@@ -89,9 +95,10 @@ TEST(Registrar, ContactRelievesPenetrationAndIsReported) {
   ASSERT_GT(contact->figures(start[0], start[1]).max_depth_m, 0.0015);
   const registration::RegistrationResult result =
       with_contact.solve({{scene.frame.images[0], scene.simulator.views()[0].camera}}, start);
-  ASSERT_EQ(result.contacts.size(), 1u);
-  EXPECT_LT(result.contacts[0].max_depth_m, 1e-4);
-  EXPECT_NEAR(result.contacts[0].max_depth_m,
+  ASSERT_EQ(result.joints.size(), 1u);
+  ASSERT_TRUE(result.joints[0].has_contact);
+  EXPECT_LT(result.joints[0].contact.max_depth_m, 1e-4);
+  EXPECT_NEAR(result.joints[0].contact.max_depth_m,
               contact->figures(result.poses[0], result.poses[1]).max_depth_m, 1e-12);
   const Pose camera_from_fixed = scene.simulator.views()[0].camera.worldFromCamera().inverse();
   for (int b = 0; b < 2; ++b) {
@@ -104,17 +111,80 @@ TEST(Registrar, ContactRelievesPenetrationAndIsReported) {
   for (const auto& per_view : result.edge_offsets_px) EXPECT_LT(std::abs(per_view[0]), 1.5);
 }
 
-TEST(Registrar, ContactPairsMustNameTwoBonesOfTheRegistrar) {
+// Ligament springs act only outside the joint's envelope: with the truth well inside the knee
+// defaults, registration gives the same answer with and without them, and reports the joint
+// coordinates of its result.
+TEST(Registrar, LigamentsLeaveResultsInsideTheEnvelopeUnchanged) {
   const Scene scene;
-  const auto& implants = scene.simulator.implants();
-  auto contact = std::make_shared<constraints::ArticularContact>(
-      implants.femoral_component, implants.tibial_insert, constraints::ContactSettings());
-  EXPECT_THROW_WITH(registration::Registrar(scene.bones, registration::RegistrationSettings(),
-                                            {{"knee", 0, 2, contact}}),
-                    "two different bones");
-  EXPECT_THROW_WITH(registration::Registrar(scene.bones, registration::RegistrationSettings(),
-                                            {{"knee", 1, 1, contact}}),
-                    "two different bones");
+  registration::JointModel knee;
+  knee.name = "knee";
+  knee.parent = 0;
+  knee.child = 1;
+  const registration::Registrar with_ligaments(scene.bones, registration::RegistrationSettings(),
+                                               {knee});
+  const registration::Registrar without(scene.bones, registration::RegistrationSettings());
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const auto coordinates = knee.coordinates(truth[0], truth[1]);
+  ASSERT_GT(coordinates.flexion_rad, 0.0);
+  ASSERT_LT(std::abs(geometry::radToDeg(coordinates.adduction_rad)), 2.0);
+  const std::vector<Pose> start = {offset(truth[0], {0.001, -0.001, 0.002}, {0.02, -0.03, 0.02}),
+                                   offset(truth[1], {-0.001, 0.001, -0.002}, {-0.03, 0.02, -0.02})};
+  const std::vector<registration::ViewImage> views = {
+      {scene.frame.images[0], scene.simulator.views()[0].camera}};
+  const auto a = with_ligaments.solve(views, start);
+  const auto b = without.solve(views, start);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_LT((a.poses[k].translation() - b.poses[k].translation()).norm(), 1e-6);
+    EXPECT_LT(geometry::rotationAngleBetween(a.poses[k].linear(), b.poses[k].linear()), 1e-5);
+  }
+  ASSERT_EQ(a.joints.size(), 1u);
+  EXPECT_FALSE(a.joints[0].has_contact);
+  EXPECT_NEAR(a.joints[0].coordinates.flexion_rad, coordinates.flexion_rad,
+              geometry::degToRad(2.0));
+}
+
+// From a start whose tibia is tilted 12 deg about its anterior axis (beyond the 3 deg varus-
+// valgus envelope), the image alone settles in a false minimum near 10 deg; the springs pull the
+// joint toward its envelope (they are a penalty, not a global search: how far depends on the
+// stiffness against the image's barrier).
+TEST(Registrar, LigamentsPullAJointTowardItsEnvelope) {
+  const Scene scene;
+  registration::JointModel knee;
+  knee.name = "knee";
+  knee.parent = 0;
+  knee.child = 1;
+  const registration::Registrar registrar(scene.bones, registration::RegistrationSettings(),
+                                          {knee});
+  knee.ligaments.enabled = false;
+  const registration::Registrar image_only(scene.bones, registration::RegistrationSettings(),
+                                           {knee});
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const std::vector<Pose> start = {
+      truth[0], offset(truth[1], Eigen::Vector3d::Zero(), {geometry::degToRad(12.0), 0.0, 0.0})};
+  ASSERT_GT(std::abs(knee.coordinates(start[0], start[1]).adduction_rad), geometry::degToRad(10.0));
+  const std::vector<registration::ViewImage> views = {
+      {scene.frame.images[0], scene.simulator.views()[0].camera}};
+  const double with_springs = std::abs(
+      geometry::radToDeg(registrar.solve(views, start).joints[0].coordinates.adduction_rad));
+  const double without = std::abs(
+      geometry::radToDeg(image_only.solve(views, start).joints[0].coordinates.adduction_rad));
+  EXPECT_GT(without, 5.0);
+  EXPECT_LT(with_springs, without - 1.0);
+}
+
+TEST(Registrar, JointsMustNameTwoBonesOfTheRegistrar) {
+  const Scene scene;
+  registration::JointModel knee;
+  knee.name = "knee";
+  knee.parent = 0;
+  knee.child = 2;
+  EXPECT_THROW_WITH(
+      registration::Registrar(scene.bones, registration::RegistrationSettings(), {knee}),
+      "two different bones");
+  knee.child = 0;
+  EXPECT_THROW_WITH(
+      registration::Registrar(scene.bones, registration::RegistrationSettings(), {knee}),
+      "two different bones");
 }
 
 TEST(Registrar, ContourMetricIsSmallestNearTheTruthAndGrowsWithOffset) {

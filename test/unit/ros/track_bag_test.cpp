@@ -5,6 +5,8 @@
 #include <sstream>
 
 #include "../test_support.h"
+#include "fluoro_tracker/io/jts_file.h"
+#include "fluoro_tracker/io/kinematics_csv.h"
 #include "fluoro_tracker/io/poses_csv.h"
 #include "fluoro_tracker/io/trial_config.h"
 #include "fluoro_tracker/ros/bag_frame_reader.h"
@@ -72,19 +74,49 @@ TEST(TrackBag, TracksASimulatedSinglePlaneTrial) {
   ASSERT_EQ(
       runTrackBag("--config " + trial.dir.file("trial.yaml") + " --bag " +
                       trial.dir.file("trial.bag") + " --poses-csv " + trial.dir.file("poses.csv") +
-                      " --truth-csv " + trial.dir.file("truth.csv"),
+                      " --truth-csv " + trial.dir.file("truth.csv") + " --kinematics-csv " +
+                      trial.dir.file("kinematics.csv") + " --contact-csv " +
+                      trial.dir.file("contact.csv") + " --jts-dir " + trial.dir.file("jts"),
                   &output),
       0)
       << output;
   EXPECT_NE(output.find("8 frame(s), 8 tracked, 0 skipped"), std::string::npos) << output;
+  // Kinematics: one row per frame for the knee, close to the truth's joint coordinates.
+  const auto kinematics = io::readKinematicsCsv(trial.dir.file("kinematics.csv"));
+  ASSERT_EQ(kinematics.size(), 8u);
+  for (const auto& k : kinematics) {
+    EXPECT_EQ(k.joint, "knee");
+    const geometry::Pose femur = trial.truth[2 * k.frame].pose;
+    const geometry::Pose tibia = trial.truth[2 * k.frame + 1].pose;
+    ASSERT_EQ(trial.truth[2 * k.frame].bone, "femur");
+    const auto truth = kinematics::kneeCoordinates(femur, tibia, kinematics::Side::kRight);
+    EXPECT_NEAR(geometry::radToDeg(k.coordinates.flexion_rad),
+                geometry::radToDeg(truth.flexion_rad), 2.0)
+        << "frame " << k.frame;
+    EXPECT_NEAR(k.coordinates.x_m, truth.x_m, 0.002) << "frame " << k.frame;
+  }
+  // Contact: a header and one row per frame.
+  std::ifstream contact(trial.dir.file("contact.csv"));
+  std::string line;
+  std::getline(contact, line);
+  EXPECT_EQ(line.rfind("frame,stamp,joint,in_collision,max_depth_mm", 0), 0u) << line;
+  int contact_rows = 0;
+  while (std::getline(contact, line)) contact_rows += line.empty() ? 0 : 1;
+  EXPECT_EQ(contact_rows, 8);
+  // JointTrack export: the same poses, in JointTrack's camera frame and millimetres.
+  const auto jts = io::readJtsFile(trial.dir.file("jts") + "/tibia.jts");
+  ASSERT_EQ(jts.size(), 8u);
+  const auto written = io::readPosesCsv(trial.dir.file("poses.csv"));
+  ASSERT_TRUE(jts[3].has_value());
+  EXPECT_TRUE(io::opticalFromJointTrack(*jts[3]).isApprox(written[2 * 3 + 1].pose, 1e-6));
   const auto poses = io::readPosesCsv(trial.dir.file("poses.csv"));
   ASSERT_EQ(poses.size(), trial.truth.size());
   for (std::size_t i = 0; i < poses.size(); ++i) {
     EXPECT_EQ(poses[i].frame, trial.truth[i].frame);
     EXPECT_EQ(poses[i].bone, trial.truth[i].bone);
     EXPECT_NEAR(poses[i].stamp, trial.truth[i].stamp, 1e-6);
-    // Single plane, image terms only: in-plane (optical x, y) within 1 mm; along the beam the
-    // error is larger and not asserted tightly here.
+    // Single plane: in-plane (optical x, y) within 1 mm; along the beam the error is larger
+    // and not asserted tightly here.
     const Eigen::Vector3d error = poses[i].pose.translation() - trial.truth[i].pose.translation();
     EXPECT_LT(std::abs(error.x()), 0.001) << poses[i].bone << " frame " << poses[i].frame;
     EXPECT_LT(std::abs(error.y()), 0.001) << poses[i].bone << " frame " << poses[i].frame;
@@ -148,6 +180,10 @@ TEST(TrackBag, InitCsvRegistersEachFrameFromItsOwnGuess) {
                         &output),
             0);
   EXPECT_NE(output.find("no pose for bone 'femur' at frame 3"), std::string::npos) << output;
+  // The frames that had guesses are still tracked and written.
+  const auto partial = io::readPosesCsv(trial.dir.file("p2.csv"));
+  ASSERT_EQ(partial.size(), 6u);
+  EXPECT_EQ(partial.back().frame, 2);
 }
 
 TEST(TrackBag, BadInputGivesAClearErrorAndNonZeroExit) {
@@ -167,10 +203,16 @@ TEST(TrackBag, BadInputGivesAClearErrorAndNonZeroExit) {
                         &output),
             0);
   EXPECT_NE(output.find("not valid YAML"), std::string::npos) << output;
-  EXPECT_NE(runTrackBag(base + " --bag " + trial.dir.file("trial.bag") + " --kinematics-csv k.csv",
+  EXPECT_NE(
+      runTrackBag(base + " --bag " + trial.dir.file("trial.bag") + " --out-bag out.bag", &output),
+      0);
+  EXPECT_NE(output.find("not implemented yet"), std::string::npos) << output;
+  // A kinematics CSV that cannot be written is named.
+  EXPECT_NE(runTrackBag(base + " --bag " + trial.dir.file("trial.bag") +
+                            " --kinematics-csv /nonexistent_dir/k.csv",
                         &output),
             0);
-  EXPECT_NE(output.find("not implemented yet"), std::string::npos) << output;
+  EXPECT_NE(output.find("/nonexistent_dir/k.csv"), std::string::npos) << output;
 }
 
 TEST(BagFrameReader, ImageTopicWithoutCameraInfoIsNamed) {

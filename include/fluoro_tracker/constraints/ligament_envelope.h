@@ -1,0 +1,54 @@
+#pragma once
+
+#include <array>
+#include <limits>
+#include <string>
+
+namespace fluoro_tracker {
+namespace constraints {
+
+// Lower and upper bound of one joint coordinate; infinite for none.
+struct CoordinateBounds {
+  double lower = -std::numeric_limits<double>::infinity();
+  double upper = std::numeric_limits<double>::infinity();
+};
+
+// Ligament-like springs (dissertation ch. 4): each of a joint's six coordinates (kinematics::
+// KneeCoordinates, in degrees and millimetres) may move freely within its bounds; outside, a
+// spring pulls it back with a residual of stiffness x distance outside. Knee defaults from the
+// dissertation: 10 deg hyperextension to 150 deg flexion, varus-valgus +-3 deg, internal-external
+// +-20 deg, femur 30 mm posterior to 10 mm anterior of the tibia (the tibia -10..30 mm anterior
+// of the femur), medial-lateral +-5 mm; distraction free. The translations' zero is where the
+// two frames' origins coincide, so bounds on them only make sense for meshes whose origins sit
+// at the joint centre (or with anatomical frames given in the trial YAML).
+struct LigamentSettings {
+  bool enabled = true;
+  // flexion_deg, adduction_deg, internal_rotation_deg, x_mm, y_mm, z_mm
+  std::array<CoordinateBounds, 6> bounds = {
+      {{-10.0, 150.0}, {-3.0, 3.0}, {-20.0, 20.0}, {-10.0, 30.0}, {}, {-5.0, 5.0}}};
+  double stiffness_per_deg = 10.0;  // residual per degree outside the bounds
+  double stiffness_per_mm = 10.0;   // residual per millimetre outside the bounds
+
+  static const std::array<const char*, 6>& coordinateNames();
+  void validate() const;  // throws InputError naming the field
+};
+
+// The six spring residuals from coordinates in radians and metres (any scalar type).
+template <typename T>
+void ligamentResiduals(const LigamentSettings& s, const T coordinates[6], T residuals[6]) {
+  constexpr double kDegPerRad = 57.29577951308232;
+  for (int k = 0; k < 6; ++k) {
+    const T value = k < 3 ? coordinates[k] * kDegPerRad : coordinates[k] * 1000.0;
+    const double stiffness = k < 3 ? s.stiffness_per_deg : s.stiffness_per_mm;
+    if (value > s.bounds[k].upper) {
+      residuals[k] = stiffness * (value - s.bounds[k].upper);
+    } else if (value < s.bounds[k].lower) {
+      residuals[k] = stiffness * (value - s.bounds[k].lower);
+    } else {
+      residuals[k] = T(0.0);
+    }
+  }
+}
+
+}  // namespace constraints
+}  // namespace fluoro_tracker

@@ -1,0 +1,24 @@
+#pragma once
+
+#include <ceres/cost_function.h>
+
+#include "fluoro_tracker/constraints/ligament_envelope.h"
+#include "fluoro_tracker/geometry/pose.h"
+#include "fluoro_tracker/kinematics/knee_coordinates.h"
+
+namespace fluoro_tracker {
+namespace registration {
+
+// Ligament-like springs of a knee as a Ceres cost: six residuals (constraints::
+// ligamentResiduals) of the joint coordinates of the parent's and child's anatomical frames,
+// moved by their pose increments (pose_increment.h). Automatic derivatives (a handful of
+// residuals; the coordinate formulas are not worth differentiating by hand). `parent_frame`
+// and `child_frame`: the anatomical frames' poses in the fixed frame at the linearisation.
+ceres::CostFunction* makeKneeLigamentCost(const constraints::LigamentSettings& settings,
+                                          kinematics::Side side, const geometry::Pose& parent_frame,
+                                          const Eigen::Vector3d& parent_centre,
+                                          const geometry::Pose& child_frame,
+                                          const Eigen::Vector3d& child_centre);
+
+}  // namespace registration
+}  // namespace fluoro_tracker
