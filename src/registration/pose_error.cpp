@@ -15,10 +15,11 @@ PoseError poseError(const geometry::Pose& estimate, const geometry::Pose& truth,
   return e;
 }
 
-bool meetsSuccessCriterion(const PoseError& e) {
-  return std::abs(e.translation_mm.x()) <= 1.0 && std::abs(e.translation_mm.y()) <= 1.0 &&
-         std::abs(e.rotation_deg.x()) <= 2.0 && std::abs(e.rotation_deg.z()) <= 2.0 &&
-         std::abs(e.rotation_deg.y()) <= 3.0;
+bool meetsSuccessCriterion(const PoseError& e, const SuccessCriterion& c) {
+  return std::abs(e.translation_mm.x()) <= c.in_plane_mm &&
+         std::abs(e.translation_mm.y()) <= c.in_plane_mm &&
+         std::abs(e.rotation_deg.x()) <= c.xz_deg && std::abs(e.rotation_deg.z()) <= c.xz_deg &&
+         std::abs(e.rotation_deg.y()) <= c.y_deg;
 }
 
 }  // namespace registration

@@ -12,10 +12,26 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   const YAML::Node root = io::loadYamlFile(path, "simulator settings");
   TrialSimulatorSettings s;
   const io::YamlSection r(root, "simulator settings '" + path + "'");
-  r.allowOnly({"image_width", "image_height", "principal_distance_mm", "pixel_spacing_mm",
-               "source_to_joint_mm", "views", "view_separation_deg", "view_yaw_deg",
-               "view_roll_deg", "femoral_material", "tray_material", "insert_material", "anatomy",
-               "seed", "start_stamp_s", "motion", "detector", "implants"});
+  r.allowOnly({"image_width",
+               "image_height",
+               "principal_distance_mm",
+               "pixel_spacing_mm",
+               "source_to_joint_mm",
+               "views",
+               "view_separation_deg",
+               "view_yaw_deg",
+               "view_roll_deg",
+               "femoral_material",
+               "tray_material",
+               "insert_material",
+               "anatomy",
+               "occluder_rod_radius_mm",
+               "occluder_material",
+               "seed",
+               "start_stamp_s",
+               "motion",
+               "detector",
+               "implants"});
   r.read("image_width", &s.image_width);
   r.read("image_height", &s.image_height);
   r.read("principal_distance_mm", &s.principal_distance_mm);
@@ -29,6 +45,8 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   r.read("tray_material", &s.tray_material);
   r.read("insert_material", &s.insert_material);
   r.read("anatomy", &s.anatomy);
+  r.read("occluder_rod_radius_mm", &s.occluder_rod_radius_mm);
+  r.read("occluder_material", &s.occluder_material);
   r.read("seed", &s.seed);
   r.read("start_stamp_s", &s.start_stamp_s);
 

@@ -40,8 +40,11 @@ void TrialSimulatorSettings::validate() const {
     throw InputError("simulator: source_to_joint_mm must be > 100 and < principal_distance_mm");
   }
   if (views != 1 && views != 2) throw InputError("simulator: views must be 1 or 2");
-  for (const auto& m : {femoral_material, tray_material, insert_material}) {
+  for (const auto& m : {femoral_material, tray_material, insert_material, occluder_material}) {
     imaging::materialByName(m);
+  }
+  if (!(occluder_rod_radius_mm >= 0.0)) {
+    throw InputError("simulator: occluder_rod_radius_mm must be >= 0");
   }
   motion.validate();
   detector.validate();
@@ -96,6 +99,19 @@ TrialSimulator::TrialSimulator(const TrialSimulatorSettings& settings)
         {ellipticCylinderM(15, 15, -400, -55), false, cortical - soft});  // tibial shaft
     anatomy_.push_back({ellipticCylinderM(9, 9, -400, -55), false, soft - cortical});  // marrow
   }
+  placeOccluder();
+}
+
+void TrialSimulator::placeOccluder() {
+  if (settings_.occluder_rod_radius_mm <= 0.0) return;
+  // A 400 mm rod along Y, turned to run diagonally across the first view 15 mm below the joint
+  // centre (over the tibial tray), 60 mm nearer the source than the joint: fixed in the lab.
+  const double r = 1e-3 * settings_.occluder_rod_radius_mm;
+  occluder_ = cylinderY(r, r, -0.2, 0.2, 24);
+  const Eigen::Vector3d centre(0.0, 0.015, 1e-3 * settings_.source_to_joint_mm - 0.06);
+  const Pose camera_from_rod =
+      geometry::makePose(geometry::rotationZ(geometry::degToRad(55.0)), centre);
+  occluder_pose_ = views_.front().camera.worldFromCamera() * camera_from_rod;
 }
 
 SimulatedFrame TrialSimulator::truth(int index) const {
@@ -140,6 +156,10 @@ cv::Mat TrialSimulator::lineIntegral(int index, int view) const {
   for (const auto& part : anatomy_) {
     objects.push_back({&part.mesh, part.on_femur ? camera_from_femur : camera_from_tibia,
                        part.attenuation_per_mm});
+  }
+  if (!occluder_.empty()) {
+    objects.push_back({&occluder_, camera_from_fixed * occluder_pose_,
+                       imaging::materialByName(settings_.occluder_material).attenuation_per_mm});
   }
   return imaging::Renderer::lineIntegral(v.camera, objects);
 }

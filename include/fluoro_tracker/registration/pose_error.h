@@ -17,9 +17,19 @@ struct PoseError {
 PoseError poseError(const geometry::Pose& estimate, const geometry::Pose& truth,
                     const geometry::Pose& camera_from_fixed);
 
-// The dissertation's success criterion for one bone (chapter 3): at most 1 mm in-plane
-// translation, 2 deg about X and Z, 3 deg about Y (the long axis).
-bool meetsSuccessCriterion(const PoseError& error);
+// A success criterion for one bone: limits on each in-plane translation, on the rotation about
+// X and Z, and about Y (the long axis).
+struct SuccessCriterion {
+  double in_plane_mm = 1.0;
+  double xz_deg = 2.0;
+  double y_deg = 3.0;
+};
+// Chapter 3's criterion (the default) and chapter 4's looser one for crude starts.
+constexpr SuccessCriterion kChapter3Criterion{1.0, 2.0, 3.0};
+constexpr SuccessCriterion kChapter4Criterion{1.5, 3.0, 5.0};
+
+bool meetsSuccessCriterion(const PoseError& error,
+                           const SuccessCriterion& criterion = kChapter3Criterion);
 
 }  // namespace registration
 }  // namespace fluoro_tracker

@@ -31,6 +31,10 @@ struct TrialSimulatorSettings {
   std::string tray_material = "cocr";
   std::string insert_material = "polyethylene";
   bool anatomy = true;  // bone shafts, metaphyses and soft tissue around the implants
+  // A metal rod fixed in the lab (like the antenna of the dissertation's Dataset B) crossing the
+  // view diagonally in front of the tibial component; radius 0: none.
+  double occluder_rod_radius_mm = 0.0;
+  std::string occluder_material = "cocr";
   KneeMotionSettings motion;
   imaging::DetectorSettings detector;
   KneeImplantDimensions implants;
@@ -99,6 +103,10 @@ class TrialSimulator {
   KneeImplantSet implants_;
   KneeContactSolver contact_;
   std::vector<AnatomyPart> anatomy_;
+  geometry::Mesh occluder_;                                    // empty: none
+  geometry::Pose occluder_pose_ = geometry::Pose::Identity();  // in the fixed frame
+
+  void placeOccluder();
   std::vector<SimulatedView> views_;
   std::string fixed_frame_;
 };

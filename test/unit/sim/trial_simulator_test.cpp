@@ -128,6 +128,8 @@ TEST(TrialSimulator, ShippedConfigLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(s.detector.window_max_attenuation, d.detector.window_max_attenuation);
   EXPECT_DOUBLE_EQ(s.detector.collimator_radius_fraction, d.detector.collimator_radius_fraction);
   EXPECT_DOUBLE_EQ(s.implants.width_mm, d.implants.width_mm);
+  EXPECT_DOUBLE_EQ(s.occluder_rod_radius_mm, d.occluder_rod_radius_mm);
+  EXPECT_EQ(s.occluder_material, d.occluder_material);
 }
 
 // Regression: at deep flexion the insert's dished top is seen edge-on and its centre fan folds
@@ -140,4 +142,27 @@ TEST(TrialSimulator, LineIntegralIsNeverNegativeOverTheDefaultTrial) {
     cv::minMaxLoc(simulator.lineIntegral(i, 0), &lowest);
     EXPECT_GT(lowest, -0.01) << "frame " << i;  // round-off of mixed-sign anatomy terms only
   }
+}
+
+// An occluding rod (Dataset B's antenna) adds attenuation along a thin band across the view and
+// leaves the bones' poses alone.
+TEST(TrialSimulator, OccluderRodCrossesTheViewWithoutMovingTheBones) {
+  sim::TrialSimulatorSettings plain;
+  plain.motion.frames = 4;
+  sim::TrialSimulatorSettings occluded = plain;
+  occluded.occluder_rod_radius_mm = 2.5;
+  const sim::TrialSimulator a(plain);
+  const sim::TrialSimulator b(occluded);
+  EXPECT_TRUE(a.truth(2).tibia.isApprox(b.truth(2).tibia));
+  const cv::Mat difference = b.lineIntegral(2, 0) - a.lineIntegral(2, 0);
+  double largest = 0.0;
+  cv::minMaxLoc(difference, nullptr, &largest);
+  // A 5 mm Co-Cr rod seen across its diameter: ~5 mm x 1/mm of line integral at its centre.
+  EXPECT_GT(largest, 4.0);
+  const double covered =
+      cv::countNonZero(difference > 0.1) / static_cast<double>(difference.total());
+  EXPECT_GT(covered, 0.005);  // a band across the view
+  EXPECT_LT(covered, 0.05);   // but a thin one
+  occluded.occluder_rod_radius_mm = -1.0;
+  EXPECT_THROW_WITH(sim::TrialSimulator{occluded}, "occluder_rod_radius_mm");
 }
