@@ -25,7 +25,7 @@ class ContactCost : public ceres::SizedCostFunction<1, 6, 6> {
   // `contact` must outlive the cost. Poses and rotation centres in the fixed frame.
   ContactCost(const constraints::ArticularContact* contact, const geometry::Pose& parent_pose,
               const Eigen::Vector3d& parent_centre, const geometry::Pose& child_pose,
-              const Eigen::Vector3d& child_centre, double reach_m = 0.01);
+              const Eigen::Vector3d& child_centre, double reach_m = 0.005);
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
