@@ -167,7 +167,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "robust_scale_px", "roi_margin_px", "reverse_term_weight", "reverse_band_px",
                      "max_translation_from_start_m", "max_rotation_from_start_rad",
                      "converged_translation_m", "converged_rotation_rad", "edge_offset_model",
-                     "edge_offset_prior_px", "contact_from_outer_iteration", "edges"});
+                     "edge_offset_prior_px", "contact_from_outer_iteration", "stages", "edges"});
   section.read("scales", &r.scales);
   section.read("outer_iterations", &r.outer_iterations);
   section.read("solver_iterations", &r.solver_iterations);
@@ -184,6 +184,22 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("edge_offset_model", &edge_offset_model);
   section.read("edge_offset_prior_px", &r.edge_offset_prior_px);
   section.read("contact_from_outer_iteration", &r.contact_from_outer_iteration);
+  if (const YAML::Node stages = node["stages"]) {
+    if (!stages.IsSequence()) throw InputError(context + ".stages must be a list");
+    for (std::size_t k = 0; k < stages.size(); ++k) {
+      const YamlSection st(stages[k], context + ".stages[" + std::to_string(k) + "]");
+      st.allowOnly({"outer_iterations", "solver_iterations", "contact", "ligaments",
+                    "contact_from_outer_iteration", "image_weights"});
+      registration::RegistrationStage stage;
+      st.read("outer_iterations", &stage.outer_iterations);
+      st.read("solver_iterations", &stage.solver_iterations);
+      st.read("contact", &stage.contact);
+      st.read("ligaments", &stage.ligaments);
+      st.read("contact_from_outer_iteration", &stage.contact_from_outer_iteration);
+      st.read("image_weights", &stage.image_weights);
+      r.stages.push_back(stage);
+    }
+  }
   const YamlSection edges = section.child("edges");
   edges.allowOnly({"window_low_percentile", "window_high_percentile", "clahe", "clahe_clip_limit",
                    "blur_sigma_px", "canny_low", "canny_high", "auto_high_fraction",
@@ -250,6 +266,8 @@ TrialConfig loadTrialConfig(const std::string& path) {
     if (const YAML::Node pose = b["initial_pose"]) {
       bone.initial_pose = readPose(pose, context + ".initial_pose");
     }
+    if (b["image_weight"]) bone.image_weight = required<double>(b, "image_weight", context);
+    if (!(bone.image_weight >= 0.0)) throw InputError(context + ": image_weight must be >= 0");
     if (const YAML::Node frame = b["anatomical_frame"]) {
       bone.anatomical_frame = readPose(frame, context + ".anatomical_frame");
     }
@@ -312,6 +330,8 @@ void saveTrialConfig(const std::string& path, const TrialConfig& config) {
     if (!bone.articular_mesh.empty()) {
       out << YAML::Key << "articular_mesh" << YAML::Value << relative(bone.articular_mesh);
     }
+    if (bone.image_weight != 1.0)
+      out << YAML::Key << "image_weight" << YAML::Value << bone.image_weight;
     if (bone.initial_pose) writePose(&out, "initial_pose", *bone.initial_pose);
     if (!bone.anatomical_frame.isApprox(geometry::Pose::Identity())) {
       writePose(&out, "anatomical_frame", bone.anatomical_frame);

@@ -14,7 +14,8 @@ TrialModels loadTrialModels(const TrialConfig& config) {
     geometry::MeshLoadOptions load;
     load.file_units = bone.mesh_units;
     const geometry::Mesh mesh = geometry::Mesh::load(bone.mesh, load);
-    models.bones.push_back({bone.name, std::make_shared<imaging::SilhouetteModel>(mesh), 1.0});
+    models.bones.push_back(
+        {bone.name, std::make_shared<imaging::SilhouetteModel>(mesh), bone.image_weight});
     articular.push_back(
         bone.articular_mesh.empty() ? mesh : geometry::Mesh::load(bone.articular_mesh, load));
   }

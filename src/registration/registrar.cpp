@@ -171,6 +171,15 @@ std::string edgeOffsetModelName(RegistrationSettings::EdgeOffsetModel model) {
   return "unknown";
 }
 
+std::vector<RegistrationStage> RegistrationSettings::schedule() const {
+  if (!stages.empty()) return stages;
+  RegistrationStage stage;
+  stage.outer_iterations = outer_iterations;
+  stage.solver_iterations = solver_iterations;
+  stage.contact_from_outer_iteration = contact_from_outer_iteration;
+  return {stage};
+}
+
 void RegistrationSettings::validate() const {
   if (scales.empty()) throw InputError("registration: scales must not be empty");
   for (double s : scales) {
@@ -187,6 +196,20 @@ void RegistrationSettings::validate() const {
   }
   if (contact_from_outer_iteration < 0) {
     throw InputError("registration: contact_from_outer_iteration must be >= 0");
+  }
+  for (std::size_t k = 0; k < stages.size(); ++k) {
+    const RegistrationStage& stage = stages[k];
+    const std::string name = "registration: stages[" + std::to_string(k) + "]";
+    if (stage.outer_iterations < 1 || stage.solver_iterations < 1) {
+      throw InputError(name + ": outer_iterations and solver_iterations must be >= 1");
+    }
+    if (stage.contact_from_outer_iteration < 0) {
+      throw InputError(name + ": contact_from_outer_iteration must be >= 0");
+    }
+    for (const auto& [bone, weight] : stage.image_weights) {
+      if (!(weight >= 0.0))
+        throw InputError(name + ": image weight of '" + bone + "' must be >= 0");
+    }
   }
   edges.validate();
 }
@@ -237,7 +260,10 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
     rois.push_back(regionOfInterest(view.camera, bones_, initial_poses, settings_.roi_margin_px));
   }
 
-  for (double scale : settings_.scales) {
+  const std::vector<RegistrationStage> schedule = settings_.schedule();
+  for (std::size_t scale_index = 0; scale_index < settings_.scales.size(); ++scale_index) {
+    const double scale = settings_.scales[scale_index];
+    const bool finest = scale_index + 1 == settings_.scales.size();
     std::vector<imaging::EdgeMap> maps;
     maps.reserve(views.size());
     for (std::size_t v = 0; v < views.size(); ++v) {
@@ -250,126 +276,132 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
     }
     previous_scale = scale;
 
-    for (int outer = 0; outer < settings_.outer_iterations; ++outer) {
-      ++result.outer_iterations;
-      std::vector<std::array<double, 6>> increments(bones_.size(), std::array<double, 6>{});
-      std::vector<Eigen::Vector3d> centres(bones_.size());
-      ceres::Problem::Options problem_options;
-      problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-      ceres::Problem problem(problem_options);
-      for (std::size_t b = 0; b < bones_.size(); ++b) {
-        if (result.diverged[b]) continue;
-        const geometry::Pose& pose = result.poses[b];
-        centres[b] = pose * centroids_[b];
-        int points_in_views = 0;
-        for (std::size_t v = 0; v < views.size(); ++v) {
-          const geometry::XrayCamera& camera = maps[v].camera();
-          const geometry::Pose camera_from_fixed = camera.worldFromCamera().inverse();
-          const auto contour = bones_[b].silhouette->contour(camera, camera_from_fixed * pose,
-                                                             settings_.contour_spacing_px);
-          if (contour.empty()) continue;
-          std::vector<Eigen::Vector3d> points;
-          std::vector<Eigen::Vector2d> offset_directions;
-          points.reserve(contour.size());
-          offset_directions.reserve(contour.size());
-          for (const auto& c : contour) {
-            points.push_back(pose * c.model_point);
-            offset_directions.push_back(offsetDirection(c, settings_.edge_offset_model));
-          }
-          points_in_views += static_cast<int>(points.size());
-          const std::size_t forward_count = points.size();
-          double* offset = &offsets[b][v];
-          problem.AddResidualBlock(
-              new ContourDistanceCost(&maps[v], std::move(points), std::move(offset_directions),
-                                      centres[b], robust_scale, bones_[b].image_weight),
-              nullptr, increments[b].data(), offset);
-          if (settings_.edge_offset_model != RegistrationSettings::EdgeOffsetModel::kNone &&
-              settings_.edge_offset_prior_px > 0.0) {
+    for (std::size_t stage_index = 0; stage_index < (finest ? schedule.size() : 1); ++stage_index) {
+      const RegistrationStage& stage = schedule[stage_index];
+      for (int outer = 0; outer < stage.outer_iterations; ++outer) {
+        ++result.outer_iterations;
+        std::vector<std::array<double, 6>> increments(bones_.size(), std::array<double, 6>{});
+        std::vector<Eigen::Vector3d> centres(bones_.size());
+        ceres::Problem::Options problem_options;
+        problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+        ceres::Problem problem(problem_options);
+        for (std::size_t b = 0; b < bones_.size(); ++b) {
+          if (result.diverged[b]) continue;
+          const geometry::Pose& pose = result.poses[b];
+          const double image_weight = bones_[b].image_weight * stage.imageWeight(bones_[b].name);
+          centres[b] = pose * centroids_[b];
+          int points_in_views = 0;
+          for (std::size_t v = 0; v < views.size(); ++v) {
+            const geometry::XrayCamera& camera = maps[v].camera();
+            const geometry::Pose camera_from_fixed = camera.worldFromCamera().inverse();
+            const auto contour = bones_[b].silhouette->contour(camera, camera_from_fixed * pose,
+                                                               settings_.contour_spacing_px);
+            if (contour.empty()) continue;
+            std::vector<Eigen::Vector3d> points;
+            std::vector<Eigen::Vector2d> offset_directions;
+            points.reserve(contour.size());
+            offset_directions.reserve(contour.size());
+            for (const auto& c : contour) {
+              points.push_back(pose * c.model_point);
+              offset_directions.push_back(offsetDirection(c, settings_.edge_offset_model));
+            }
+            points_in_views += static_cast<int>(points.size());
+            const std::size_t forward_count = points.size();
+            double* offset = &offsets[b][v];
             problem.AddResidualBlock(
-                new EdgeOffsetPrior(1.0 / (settings_.edge_offset_prior_px * scale)), nullptr,
-                offset);
-          } else {
-            problem.SetParameterBlockConstant(offset);
-          }
-          if (settings_.reverse_term_weight > 0.0) {
-            auto pairs = edgeContourPairs(maps[v], contour, pose, settings_.reverse_band_px * scale,
-                                          forward_count, settings_.edge_offset_model);
-            if (!pairs.empty()) {
+                new ContourDistanceCost(&maps[v], std::move(points), std::move(offset_directions),
+                                        centres[b], robust_scale, image_weight),
+                nullptr, increments[b].data(), offset);
+            if (settings_.edge_offset_model != RegistrationSettings::EdgeOffsetModel::kNone &&
+                settings_.edge_offset_prior_px > 0.0) {
               problem.AddResidualBlock(
-                  new EdgeToContourCost(camera, std::move(pairs), centres[b], robust_scale,
-                                        settings_.reverse_term_weight * bones_[b].image_weight),
-                  nullptr, increments[b].data(), offset);
+                  new EdgeOffsetPrior(1.0 / (settings_.edge_offset_prior_px * scale)), nullptr,
+                  offset);
+            } else {
+              problem.SetParameterBlockConstant(offset);
+            }
+            if (settings_.reverse_term_weight > 0.0) {
+              auto pairs =
+                  edgeContourPairs(maps[v], contour, pose, settings_.reverse_band_px * scale,
+                                   forward_count, settings_.edge_offset_model);
+              if (!pairs.empty()) {
+                problem.AddResidualBlock(
+                    new EdgeToContourCost(camera, std::move(pairs), centres[b], robust_scale,
+                                          settings_.reverse_term_weight * image_weight),
+                    nullptr, increments[b].data(), offset);
+              }
             }
           }
+          result.contour_points[b] = points_in_views;
         }
-        result.contour_points[b] = points_in_views;
-      }
-      // Contact joins once the image has placed the bones: from a crude start, penetration
-      // relieved first is relieved along the beam, where the image resists least.
-      const bool with_contact =
-          scale == settings_.scales.back() && outer >= settings_.contact_from_outer_iteration;
-      for (const auto& joint : joints_) {
-        if (result.diverged[joint.parent] || result.diverged[joint.child]) continue;
-        double* parent_increment = increments[joint.parent].data();
-        double* child_increment = increments[joint.child].data();
-        if (!problem.HasParameterBlock(parent_increment) ||
-            !problem.HasParameterBlock(child_increment)) {
-          continue;
+        // Contact joins once the image has placed the bones: from a crude start, penetration
+        // relieved first is relieved along the beam, where the image resists least.
+        const bool with_contact =
+            stage.contact && finest && outer >= stage.contact_from_outer_iteration;
+        for (const auto& joint : joints_) {
+          if (result.diverged[joint.parent] || result.diverged[joint.child]) continue;
+          double* parent_increment = increments[joint.parent].data();
+          double* child_increment = increments[joint.child].data();
+          if (!problem.HasParameterBlock(parent_increment) ||
+              !problem.HasParameterBlock(child_increment)) {
+            continue;
+          }
+          const geometry::Pose& parent_pose = result.poses[joint.parent];
+          const geometry::Pose& child_pose = result.poses[joint.child];
+          if (joint.contact && with_contact) {
+            problem.AddResidualBlock(
+                new ContactCost(joint.contact.get(), parent_pose, centres[joint.parent], child_pose,
+                                centres[joint.child]),
+                nullptr, parent_increment, child_increment);
+          }
+          if (joint.ligaments.enabled && stage.ligaments) {
+            problem.AddResidualBlock(
+                makeKneeLigamentCost(joint.ligaments, joint.side,
+                                     parent_pose * joint.parent_anatomical, centres[joint.parent],
+                                     child_pose * joint.child_anatomical, centres[joint.child]),
+                nullptr, parent_increment, child_increment);
+          }
         }
-        const geometry::Pose& parent_pose = result.poses[joint.parent];
-        const geometry::Pose& child_pose = result.poses[joint.child];
-        if (joint.contact && with_contact) {
-          problem.AddResidualBlock(
-              new ContactCost(joint.contact.get(), parent_pose, centres[joint.parent], child_pose,
-                              centres[joint.child]),
-              nullptr, parent_increment, child_increment);
-        }
-        if (joint.ligaments.enabled) {
-          problem.AddResidualBlock(
-              makeKneeLigamentCost(joint.ligaments, joint.side,
-                                   parent_pose * joint.parent_anatomical, centres[joint.parent],
-                                   child_pose * joint.child_anatomical, centres[joint.child]),
-              nullptr, parent_increment, child_increment);
-        }
-      }
-      if (problem.NumResidualBlocks() == 0) break;
+        if (problem.NumResidualBlocks() == 0) break;
 
-      ceres::Solver::Options options;
-      options.minimizer_type = ceres::TRUST_REGION;
-      options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-      // A handful of unknowns against thousands of residuals: the 6n x 6n normal equations.
-      options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-      options.max_num_iterations = settings_.solver_iterations;
-      options.num_threads = 1;
-      options.logging_type = ceres::SILENT;
-      ceres::Solver::Summary summary;
-      ceres::Solve(options, &problem, &summary);
-      result.cost_evaluations += summary.num_residual_evaluations;
-      result.solver_iterations += static_cast<int>(summary.iterations.size());
-      result.final_cost = summary.final_cost;
+        ceres::Solver::Options options;
+        options.minimizer_type = ceres::TRUST_REGION;
+        options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+        // A handful of unknowns against thousands of residuals: the 6n x 6n normal equations.
+        options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+        options.max_num_iterations = stage.solver_iterations;
+        options.num_threads = 1;
+        options.logging_type = ceres::SILENT;
+        ceres::Solver::Summary summary;
+        ceres::Solve(options, &problem, &summary);
+        result.cost_evaluations += summary.num_residual_evaluations;
+        result.solver_iterations += static_cast<int>(summary.iterations.size());
+        result.final_cost = summary.final_cost;
 
-      double max_translation = 0.0;
-      double max_rotation = 0.0;
-      for (std::size_t b = 0; b < bones_.size(); ++b) {
-        if (!problem.HasParameterBlock(increments[b].data())) continue;
-        const auto& inc = increments[b];
-        const geometry::Pose moved = applyIncrement(result.poses[b], centres[b], inc.data());
-        const bool plausible =
-            (moved.translation() - initial_poses[b].translation()).norm() <=
-                settings_.max_translation_from_start_m &&
-            geometry::rotationAngleBetween(moved.linear(), initial_poses[b].linear()) <=
-                settings_.max_rotation_from_start_rad;
-        if (!plausible || !isViewable(bones_[b], moved, views)) {
-          result.diverged[b] = true;
-          continue;
+        double max_translation = 0.0;
+        double max_rotation = 0.0;
+        for (std::size_t b = 0; b < bones_.size(); ++b) {
+          if (!problem.HasParameterBlock(increments[b].data())) continue;
+          const auto& inc = increments[b];
+          const geometry::Pose moved = applyIncrement(result.poses[b], centres[b], inc.data());
+          const bool plausible =
+              (moved.translation() - initial_poses[b].translation()).norm() <=
+                  settings_.max_translation_from_start_m &&
+              geometry::rotationAngleBetween(moved.linear(), initial_poses[b].linear()) <=
+                  settings_.max_rotation_from_start_rad;
+          if (!plausible || !isViewable(bones_[b], moved, views)) {
+            result.diverged[b] = true;
+            continue;
+          }
+          result.poses[b] = moved;
+          max_rotation = std::max(max_rotation, Eigen::Vector3d(inc[0], inc[1], inc[2]).norm());
+          max_translation =
+              std::max(max_translation, Eigen::Vector3d(inc[3], inc[4], inc[5]).norm());
         }
-        result.poses[b] = moved;
-        max_rotation = std::max(max_rotation, Eigen::Vector3d(inc[0], inc[1], inc[2]).norm());
-        max_translation = std::max(max_translation, Eigen::Vector3d(inc[3], inc[4], inc[5]).norm());
-      }
-      if (max_translation < settings_.converged_translation_m &&
-          max_rotation < settings_.converged_rotation_rad) {
-        break;
+        if (max_translation < settings_.converged_translation_m &&
+            max_rotation < settings_.converged_rotation_rad) {
+          break;
+        }
       }
     }
   }

@@ -496,6 +496,9 @@ int main(int argc, char** argv) {
       "edge-offset-prior-px",
       po::value(&settings.edge_offset_prior_px)->default_value(settings.edge_offset_prior_px),
       "prior sigma of each bone's edge offset, pixels")(
+      "staged",
+      "the dissertation's Dataset B schedule: 2 outer iterations of image (femur weighted 2:1) "
+      "and ligaments without contact, then 4 with every term")(
       "protocol", po::value(&protocol)->default_value(protocol),
       "standard (chapter 3: +-2 mm / +-3 mm / +-3 deg starts) or crude (chapter 4's crude guesses, "
       "coarse-to-fine scales 0.25 0.5 1 unless --scales is given)")(
@@ -537,6 +540,15 @@ int main(int argc, char** argv) {
       throw InputError("--protocol must be standard or crude, not '" + protocol + "'");
     }
     if (!scales.empty()) settings.scales = scales;
+    if (vm.count("staged")) {
+      registration::RegistrationStage envelope;
+      envelope.outer_iterations = 2;
+      envelope.contact = false;
+      envelope.image_weights = {{"femur", 2.0}, {"tibia", 1.0}};
+      registration::RegistrationStage everything;
+      everything.outer_iterations = settings.outer_iterations;
+      settings.stages = {envelope, everything};
+    }
     contact.measure = constraints::contactMeasureFromName(contact_measure);
     settings.edge_offset_model = registration::edgeOffsetModelFromName(edge_offset_model);
     contact.validate();

@@ -24,6 +24,8 @@ struct BoneConfig {
   // Pose of the bone frame in fixed_frame at the first frame (metres); none: find it
   // automatically.
   std::optional<geometry::Pose> initial_pose;
+  // Weight of the bone's image terms (e.g. 2 for a femur whose image is the more reliable).
+  double image_weight = 1.0;
   // The bone's anatomical frame (ISB: X anterior, Y superior, Z right) in its mesh frame, for
   // joint kinematics; identity when the mesh is already in anatomical axes.
   geometry::Pose anatomical_frame = geometry::Pose::Identity();

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -16,6 +17,23 @@
 
 namespace fluoro_tracker {
 namespace registration {
+
+// One stage of a staged schedule (dissertation ch. 4, Dataset B: first image and ligament
+// bounds without contact, then everything): which terms take part, how long it runs, and
+// per-bone image weights (e.g. femur 2, tibia 1 when the femur's image is the more reliable).
+struct RegistrationStage {
+  int outer_iterations = 4;
+  int solver_iterations = 8;
+  bool contact = true;
+  bool ligaments = true;
+  int contact_from_outer_iteration = 0;         // within this stage
+  std::map<std::string, double> image_weights;  // bone name -> factor; absent bones: 1
+
+  double imageWeight(const std::string& bone) const {
+    const auto it = image_weights.find(bone);
+    return it == image_weights.end() ? 1.0 : it->second;
+  }
+};
 
 struct RegistrationSettings {
   // Coarse-to-fine image scales. Full resolution alone measured best for starts within
@@ -42,6 +60,13 @@ struct RegistrationSettings {
   double edge_offset_prior_px = 0.5;  // full-resolution pixels
   // Contact penalties join at this outer iteration of the finest scale (0: from the start).
   int contact_from_outer_iteration = 1;
+  // Staged schedule. Empty: one stage of outer_iterations x solver_iterations with every term
+  // (contact from contact_from_outer_iteration). Otherwise the stages run in order at the
+  // finest scale; coarser scales run the first stage.
+  std::vector<RegistrationStage> stages;
+
+  // The stages that run: `stages`, or the single default stage.
+  std::vector<RegistrationStage> schedule() const;
   // A bone that would end farther than this from its starting pose has diverged (the solver
   // ran down a weakly constrained direction): it is kept at its last plausible pose.
   double max_translation_from_start_m = 0.03;

@@ -186,6 +186,28 @@ registration:
   EXPECT_EQ(c.registration.solver_iterations,
             registration::RegistrationSettings().solver_iterations);
 
+  test_support::writeText(dir.file("staged.yaml"), R"(
+bones:
+  - {name: femur, mesh: f.stl, image_weight: 2.0}
+registration:
+  stages:
+    - {outer_iterations: 2, contact: false, image_weights: {femur: 2.0, tibia: 1.0}}
+    - {outer_iterations: 3, solver_iterations: 5}
+)");
+  const io::TrialConfig staged = io::loadTrialConfig(dir.file("staged.yaml"));
+  EXPECT_DOUBLE_EQ(staged.bones[0].image_weight, 2.0);
+  ASSERT_EQ(staged.registration.stages.size(), 2u);
+  EXPECT_EQ(staged.registration.stages[0].outer_iterations, 2);
+  EXPECT_FALSE(staged.registration.stages[0].contact);
+  EXPECT_TRUE(staged.registration.stages[0].ligaments);
+  EXPECT_DOUBLE_EQ(staged.registration.stages[0].imageWeight("femur"), 2.0);
+  EXPECT_DOUBLE_EQ(staged.registration.stages[0].imageWeight("patella"), 1.0);
+  EXPECT_EQ(staged.registration.stages[1].solver_iterations, 5);
+  EXPECT_TRUE(staged.registration.stages[1].contact);
+  test_support::writeText(
+      dir.file("stage_typo.yaml"),
+      "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {stages: [{outer: 2}]}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("stage_typo.yaml")), "unknown key 'outer'");
   test_support::writeText(
       dir.file("typo.yaml"),
       "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {outer_iteration: 3}\n");

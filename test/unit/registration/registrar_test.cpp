@@ -172,6 +172,25 @@ TEST(Registrar, LigamentsPullAJointTowardItsEnvelope) {
   EXPECT_LT(with_springs, without - 1.0);
 }
 
+// A stage's image weights scale each bone's image terms: with the tibia's at 0 (and no joint to
+// move it), the tibia stays where it started while the femur is registered.
+TEST(Registrar, StageImageWeightsApplyPerBone) {
+  const Scene scene;
+  registration::RegistrationSettings settings;
+  registration::RegistrationStage stage;
+  stage.image_weights = {{"tibia", 0.0}};
+  settings.stages = {stage};
+  const registration::Registrar registrar(scene.bones, settings);
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const std::vector<Pose> start = {offset(truth[0], {0.001, -0.001, 0.0}, {0.02, 0.0, 0.0}),
+                                   offset(truth[1], {-0.001, 0.001, 0.0}, {0.0, 0.02, 0.0})};
+  const auto result =
+      registrar.solve({{scene.frame.images[0], scene.simulator.views()[0].camera}}, start);
+  EXPECT_LT((result.poses[1].translation() - start[1].translation()).norm(), 1e-9);
+  const Eigen::Vector3d femur_error = result.poses[0].translation() - truth[0].translation();
+  EXPECT_LT(std::hypot(femur_error.x(), femur_error.y()), 0.0005);
+}
+
 TEST(Registrar, JointsMustNameTwoBonesOfTheRegistrar) {
   const Scene scene;
   registration::JointModel knee;
