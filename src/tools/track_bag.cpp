@@ -22,6 +22,7 @@
 #include "fluoro_tracker/io/trial_models.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/registration/registrar.h"
+#include "fluoro_tracker/registration/tracker.h"
 #include "fluoro_tracker/ros/bag_frame_reader.h"
 
 namespace po = boost::program_options;
@@ -104,7 +105,9 @@ int main(int argc, char** argv) {
     const io::TrialConfig config = io::loadTrialConfig(config_path);
     const io::TrialModels models = io::loadTrialModels(config);
     const std::vector<registration::BoneModel>& bones = models.bones;
-    const registration::Registrar registrar(models.bones, config.registration, models.joints);
+    const auto registrar_ptr = std::make_shared<const registration::Registrar>(
+        models.bones, config.registration, models.joints);
+    const registration::Registrar& registrar = *registrar_ptr;
     std::vector<io::KinematicsRecord> kinematics;
     std::ofstream contact_csv;
     if (!contact_path.empty()) {
@@ -134,10 +137,12 @@ int main(int argc, char** argv) {
     if (!overlay_dir.empty()) std::filesystem::create_directories(overlay_dir);
 
     ros_bridge::BagFrameReader reader(bag_path, image_topics, config.fixed_frame);
-    std::vector<Pose> previous;
-    std::vector<Pose> before_previous;
-    for (const auto& bone : config.bones) {
-      if (bone.initial_pose) previous.push_back(*bone.initial_pose);
+    // Without --init-csv, frames are tracked from the previous solutions.
+    std::unique_ptr<registration::Tracker> tracker;
+    if (init_path.empty()) {
+      std::vector<Pose> initial;
+      for (const auto& bone : config.bones) initial.push_back(*bone.initial_pose);
+      tracker = std::make_unique<registration::Tracker>(registrar_ptr, initial);
     }
     std::vector<io::PoseRecord> records;
     std::vector<std::string> missing_guesses;
@@ -151,37 +156,36 @@ int main(int argc, char** argv) {
 
     reader.read(
         [&](const ros_bridge::BagFrame& frame) {
-          std::vector<Pose> guess(bones.size());
-          for (std::size_t b = 0; b < bones.size(); ++b) {
-            if (!init_path.empty()) {
-              const auto it = guesses.find({frame.index, bones[b].name});
-              if (it == guesses.end()) {
-                // Skip this frame, keep every other: the error is reported at the end.
-                missing_guesses.push_back("--init-csv has no pose for bone '" + bones[b].name +
-                                          "' at frame " + std::to_string(frame.index));
-                std::cerr << "track_bag: skipped frame " << frame.index << ": "
-                          << missing_guesses.back() << "\n";
-                ++skipped;
-                return;
-              }
-              guess[b] = it->second;
-            } else if (before_previous.size() == bones.size()) {
-              // Constant velocity: repeat the last frame-to-frame motion.
-              guess[b] =
-                  geometry::normalized(previous[b] * (before_previous[b].inverse() * previous[b]));
-            } else {
-              guess[b] = previous[b];
+          std::vector<Pose> guess = tracker ? tracker->poses() : std::vector<Pose>(bones.size());
+          for (std::size_t b = 0; !tracker && b < bones.size(); ++b) {
+            const auto it = guesses.find({frame.index, bones[b].name});
+            if (it == guesses.end()) {
+              // Skip this frame, keep every other: the error is reported at the end.
+              missing_guesses.push_back("--init-csv has no pose for bone '" + bones[b].name +
+                                        "' at frame " + std::to_string(frame.index));
+              std::cerr << "track_bag: skipped frame " << frame.index << ": "
+                        << missing_guesses.back() << "\n";
+              ++skipped;
+              return;
             }
+            guess[b] = it->second;
           }
           std::vector<registration::ViewImage> views;
           for (std::size_t v = 0; v < frame.images.size(); ++v)
             views.push_back({frame.images[v], frame.cameras[v]});
           registration::RegistrationResult result;
           try {
-            result = registrar.solve(views, guess);
+            if (tracker) {
+              const registration::TrackedFrame tracked_frame = tracker->track(views);
+              result = tracked_frame.result;
+              result.poses = tracked_frame.poses;  // lost bones: their last good pose
+            } else {
+              result = registrar.solve(views, guess);
+            }
           } catch (const InputError& e) {
             // Keep going: the frame is reported lost at its starting poses.
             std::cerr << "track_bag: frame " << frame.index << ": " << e.what() << "\n";
+            result = registration::RegistrationResult();
             result.poses = guess;
             result.diverged.assign(bones.size(), true);
           }
@@ -218,8 +222,6 @@ int main(int argc, char** argv) {
             }
           }
           ++tracked;
-          before_previous = frame_flagged ? std::vector<Pose>() : previous;
-          previous = result.poses;
 
           if (!truth.empty()) {
             const Pose camera_from_fixed = frame.cameras[0].worldFromCamera().inverse();
