@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "fluoro_tracker/imaging/contour_overlay.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/jts_file.h"
 #include "fluoro_tracker/io/kinematics_csv.h"
@@ -30,24 +31,6 @@ using namespace fluoro_tracker;
 using geometry::Pose;
 
 namespace {
-
-// Draws each bone's projected outer contour in its colour on the first view.
-cv::Mat overlay(const ros_bridge::BagFrame& frame,
-                const std::vector<registration::BoneModel>& bones, const std::vector<Pose>& poses) {
-  cv::Mat grey = frame.images[0];
-  if (grey.depth() == CV_16U) grey.convertTo(grey, CV_8U, 1.0 / 257.0);
-  cv::Mat out;
-  cv::cvtColor(grey, out, cv::COLOR_GRAY2BGR);
-  const cv::Scalar colours[] = {{0, 255, 0}, {0, 200, 255}, {255, 128, 0}, {255, 0, 255}};
-  const auto& camera = frame.cameras[0];
-  for (std::size_t b = 0; b < bones.size(); ++b) {
-    const Pose camera_from_bone = camera.worldFromCamera().inverse() * poses[b];
-    for (const auto& c : bones[b].silhouette->contour(camera, camera_from_bone, 1.0)) {
-      cv::circle(out, cv::Point2d(c.pixel.x(), c.pixel.y()), 1, colours[b % 4], cv::FILLED);
-    }
-  }
-  return out;
-}
 
 struct Accuracy {
   std::vector<Eigen::Matrix<double, 6, 1>> errors;  // per bone-frame: tx ty tz (mm), rx ry rz (deg)
@@ -242,7 +225,11 @@ int main(int argc, char** argv) {
           if (!overlay_dir.empty() && frame.index % std::max(1, overlay_every) == 0) {
             char name[64];
             std::snprintf(name, sizeof(name), "/overlay_%04d.png", frame.index);
-            cv::imwrite(overlay_dir + name, overlay(frame, bones, result.poses));
+            std::vector<const imaging::SilhouetteModel*> models;
+            for (const auto& bone : bones) models.push_back(bone.silhouette.get());
+            cv::imwrite(overlay_dir + name,
+                        imaging::drawContourOverlay(frame.images[0], frame.cameras[0], models,
+                                                    result.poses));
           }
           if (tracked % 10 == 0) {
             std::cout << (interactive ? "\r" : "") << "track_bag: frame " << tracked + skipped

@@ -1,0 +1,87 @@
+#pragma once
+
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include <image_transport/image_transport.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "fluoro_tracker/PlayBag.h"
+#include "fluoro_tracker/Reinitialize.h"
+#include "fluoro_tracker/io/trial_config.h"
+#include "fluoro_tracker/io/trial_models.h"
+#include "fluoro_tracker/registration/tracker.h"
+
+namespace fluoro_tracker {
+namespace ros_bridge {
+
+// The tracking node (docs/interfaces.md): a thin ROS wrapper around registration::Tracker.
+// One view through an image_transport camera subscription (`image` + its `camera_info`).
+// Frames are registered on a worker thread; a frame that arrives while one is waiting is
+// replaced by it (latest wins) and counted as dropped. Publishes tf fixed_frame -> <bone>
+// stamped with the image stamp, ~kinematics, ~status and ~overlay; serves ~reinitialize and
+// ~play_bag. Bad input is logged with its reason; the node keeps running and publishes nothing
+// non-finite.
+class TrackerNode {
+ public:
+  // Reads ~config (the trial YAML). Throws InputError for a missing or bad config.
+  TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh);
+  ~TrackerNode();
+
+  TrackerNode(const TrackerNode&) = delete;
+  TrackerNode& operator=(const TrackerNode&) = delete;
+
+ private:
+  struct PendingFrame {
+    cv::Mat image;
+    sensor_msgs::CameraInfo info;
+    std_msgs::Header header;
+  };
+
+  void onImage(const sensor_msgs::ImageConstPtr& image,
+               const sensor_msgs::CameraInfoConstPtr& info);
+  void work();
+  void process(const PendingFrame& frame);
+  bool onReinitialize(Reinitialize::Request& request, Reinitialize::Response& response);
+  bool onPlayBag(PlayBag::Request& request, PlayBag::Response& response);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle private_nh_;
+  io::TrialConfig config_;
+  io::TrialModels models_;
+  std::shared_ptr<const registration::Registrar> registrar_;
+  std::vector<geometry::Pose> initial_poses_;
+
+  std::mutex tracker_mutex_;  // the tracker is shared by the worker and the services
+  std::unique_ptr<registration::Tracker> tracker_;
+
+  image_transport::ImageTransport image_transport_;
+  image_transport::ImageTransport private_image_transport_;  // for ~overlay
+  image_transport::CameraSubscriber camera_subscriber_;
+  image_transport::Publisher overlay_publisher_;
+  ros::Publisher kinematics_publisher_;
+  ros::Publisher status_publisher_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  ros::ServiceServer reinitialize_service_;
+  ros::ServiceServer play_bag_service_;
+
+  std::mutex queue_mutex_;
+  std::condition_variable queue_ready_;
+  std::optional<PendingFrame> pending_;
+  std::uint32_t frames_dropped_ = 0;
+  bool stopping_ = false;
+  std::thread worker_;
+};
+
+}  // namespace ros_bridge
+}  // namespace fluoro_tracker

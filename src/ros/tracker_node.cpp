@@ -1,0 +1,315 @@
+#include "fluoro_tracker/ros/tracker_node.h"
+
+#include <chrono>
+#include <cmath>
+
+#include <cv_bridge/cv_bridge.h>
+#include <tf2_eigen/tf2_eigen.h>
+
+#include "fluoro_tracker/JointKinematics.h"
+#include "fluoro_tracker/TrackingStatus.h"
+#include "fluoro_tracker/imaging/contour_overlay.h"
+#include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/io/kinematics_csv.h"
+#include "fluoro_tracker/io/poses_csv.h"
+#include "fluoro_tracker/ros/bag_frame_reader.h"
+#include "fluoro_tracker/ros/conversions.h"
+
+namespace fluoro_tracker {
+namespace ros_bridge {
+namespace {
+
+bool isFinite(const kinematics::KneeCoordinates& c) {
+  return std::isfinite(c.flexion_rad) && std::isfinite(c.adduction_rad) &&
+         std::isfinite(c.internal_rotation_rad) && std::isfinite(c.x_m) && std::isfinite(c.y_m) &&
+         std::isfinite(c.z_m);
+}
+
+// A joint's coordinates at a tracked frame: from the registration when it ran, else from the
+// poses reported.
+kinematics::KneeCoordinates jointCoordinates(const registration::JointModel& joint,
+                                             const registration::TrackedFrame& tracked,
+                                             std::size_t index) {
+  return index < tracked.result.joints.size()
+             ? tracked.result.joints[index].coordinates
+             : joint.coordinates(tracked.poses[joint.parent], tracked.poses[joint.child]);
+}
+
+std::string jointStatus(const registration::JointModel& joint,
+                        const registration::TrackedFrame& tracked) {
+  return tracked.status[joint.parent] == "ok" && tracked.status[joint.child] == "ok" ? "ok"
+                                                                                     : "lost";
+}
+
+}  // namespace
+
+TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
+    : nh_(nh),
+      private_nh_(private_nh),
+      image_transport_(nh),
+      private_image_transport_(private_nh),
+      tf_listener_(tf_buffer_) {
+  std::string config_path;
+  if (!private_nh_.getParam("config", config_path) || config_path.empty()) {
+    throw InputError("tracker_node: the ~config parameter (the trial YAML) is required");
+  }
+  config_ = io::loadTrialConfig(config_path);
+  models_ = io::loadTrialModels(config_);
+  registrar_ = std::make_shared<registration::Registrar>(models_.bones, config_.registration,
+                                                         models_.joints);
+  for (const auto& bone : config_.bones) {
+    if (!bone.initial_pose) {
+      throw InputError("tracker_node: bone '" + bone.name + "' has no initial_pose in '" +
+                       config_path + "' (automatic initialisation is not available yet)");
+    }
+    initial_poses_.push_back(*bone.initial_pose);
+  }
+  tracker_ = std::make_unique<registration::Tracker>(registrar_, initial_poses_);
+
+  overlay_publisher_ = private_image_transport_.advertise("overlay", 1);
+  kinematics_publisher_ = private_nh_.advertise<JointKinematics>("kinematics", 10);
+  status_publisher_ = private_nh_.advertise<TrackingStatus>("status", 10);
+  reinitialize_service_ =
+      private_nh_.advertiseService("reinitialize", &TrackerNode::onReinitialize, this);
+  play_bag_service_ = private_nh_.advertiseService("play_bag", &TrackerNode::onPlayBag, this);
+  worker_ = std::thread(&TrackerNode::work, this);
+  camera_subscriber_ = image_transport_.subscribeCamera("image", 2, &TrackerNode::onImage, this);
+  ROS_INFO("tracker_node: tracking %zu bone(s) from '%s' on %s", config_.bones.size(),
+           config_path.c_str(), camera_subscriber_.getTopic().c_str());
+}
+
+TrackerNode::~TrackerNode() {
+  camera_subscriber_.shutdown();
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    stopping_ = true;
+  }
+  queue_ready_.notify_all();
+  if (worker_.joinable()) worker_.join();
+}
+
+void TrackerNode::onImage(const sensor_msgs::ImageConstPtr& image,
+                          const sensor_msgs::CameraInfoConstPtr& info) {
+  PendingFrame frame;
+  try {
+    frame.image = fromImageMessage(*image);
+  } catch (const InputError& e) {
+    ROS_ERROR_THROTTLE(5.0, "tracker_node: frame at %.3f skipped: %s", image->header.stamp.toSec(),
+                       e.what());
+    return;
+  }
+  frame.info = *info;
+  frame.header = image->header;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (pending_) ++frames_dropped_;  // the waiting frame is replaced: latest wins
+    pending_ = std::move(frame);
+  }
+  queue_ready_.notify_one();
+}
+
+void TrackerNode::work() {
+  while (true) {
+    PendingFrame frame;
+    {
+      std::unique_lock<std::mutex> lock(queue_mutex_);
+      queue_ready_.wait(lock, [this] { return stopping_ || pending_.has_value(); });
+      if (stopping_) return;
+      frame = std::move(*pending_);
+      pending_.reset();
+    }
+    process(frame);
+  }
+}
+
+void TrackerNode::process(const PendingFrame& frame) {
+  geometry::XrayCamera camera;
+  try {
+    camera = fromCameraInfo(frame.info);
+    if (frame.image.cols != camera.width() || frame.image.rows != camera.height()) {
+      throw InputError("the image is " + std::to_string(frame.image.cols) + "x" +
+                       std::to_string(frame.image.rows) + " but its camera_info says " +
+                       std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
+    }
+  } catch (const InputError& e) {
+    ROS_ERROR_THROTTLE(5.0, "tracker_node: frame at %.3f skipped: %s", frame.header.stamp.toSec(),
+                       e.what());
+    return;
+  }
+  const std::string fixed_frame =
+      config_.fixed_frame.empty() ? camera.frameId() : config_.fixed_frame;
+  if (fixed_frame != camera.frameId()) {
+    try {
+      const auto transform = tf_buffer_.lookupTransform(fixed_frame, camera.frameId(),
+                                                        frame.header.stamp, ros::Duration(0.2));
+      camera.setWorldFromCamera(tf2::transformToEigen(transform));
+    } catch (const tf2::TransformException& e) {
+      ROS_ERROR_THROTTLE(5.0, "tracker_node: frame at %.3f skipped: no transform %s <- %s: %s",
+                         frame.header.stamp.toSec(), fixed_frame.c_str(), camera.frameId().c_str(),
+                         e.what());
+      return;
+    }
+  }
+
+  registration::TrackedFrame tracked;
+  {
+    std::lock_guard<std::mutex> lock(tracker_mutex_);
+    try {
+      tracked = tracker_->track({{frame.image, camera}});
+    } catch (const InputError& e) {
+      ROS_ERROR_THROTTLE(5.0, "tracker_node: frame at %.3f not tracked: %s",
+                         frame.header.stamp.toSec(), e.what());
+      return;
+    }
+  }
+  const auto& bones = registrar_->bones();
+  std::vector<geometry_msgs::TransformStamped> transforms;
+  for (std::size_t b = 0; b < bones.size(); ++b) {
+    geometry_msgs::TransformStamped t;
+    t.header.stamp = frame.header.stamp;  // never now(): tf lines up with the image
+    t.header.frame_id = fixed_frame;
+    t.child_frame_id = bones[b].name;
+    t.transform = toTransformMessage(tracked.poses[b]);
+    transforms.push_back(t);
+  }
+  tf_broadcaster_.sendTransform(transforms);
+
+  for (std::size_t j = 0; j < registrar_->joints().size(); ++j) {
+    const auto& joint = registrar_->joints()[j];
+    const kinematics::KneeCoordinates c = jointCoordinates(joint, tracked, j);
+    if (!isFinite(c)) continue;
+    JointKinematics message;
+    message.header.stamp = frame.header.stamp;
+    message.header.frame_id = bones[joint.parent].name;
+    message.joint = joint.name;
+    message.parent = bones[joint.parent].name;
+    message.child = bones[joint.child].name;
+    message.angle_names = {"flexion", "adduction", "internal_rotation"};
+    message.angles = {c.flexion_rad, c.adduction_rad, c.internal_rotation_rad};
+    message.translation_names = {"anterior", "superior", "lateral"};
+    message.translations = {c.x_m, c.y_m, c.z_m};
+    message.status = jointStatus(joint, tracked);
+    kinematics_publisher_.publish(message);
+  }
+
+  TrackingStatus status;
+  status.header = frame.header;
+  for (std::size_t b = 0; b < bones.size(); ++b) {
+    BoneStatus bone;
+    bone.bone = bones[b].name;
+    bone.status = tracked.status[b];
+    bone.cost = tracked.result.final_cost;
+    bone.iterations = static_cast<std::uint32_t>(tracked.result.solver_iterations);
+    bone.solve_time_s = tracked.solve_seconds;
+    status.bones.push_back(bone);
+  }
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    status.frames_dropped = frames_dropped_;
+  }
+  status_publisher_.publish(status);
+
+  if (overlay_publisher_.getNumSubscribers() > 0) {
+    std::vector<const imaging::SilhouetteModel*> models;
+    for (const auto& bone : bones) models.push_back(bone.silhouette.get());
+    overlay_publisher_.publish(
+        cv_bridge::CvImage(frame.header, "bgr8",
+                           imaging::drawContourOverlay(frame.image, camera, models, tracked.poses))
+            .toImageMsg());
+  }
+}
+
+bool TrackerNode::onReinitialize(Reinitialize::Request& request, Reinitialize::Response& response) {
+  if (request.automatic) {
+    response.success = false;
+    response.message = "automatic initialisation is not available yet; give poses";
+    return true;
+  }
+  try {
+    std::lock_guard<std::mutex> lock(tracker_mutex_);
+    if (request.bones.empty() && request.poses.empty()) {
+      std::vector<std::string> names;
+      for (const auto& bone : registrar_->bones()) names.push_back(bone.name);
+      tracker_->reinitialize(names, initial_poses_);
+      response.message = "all bones reset to the trial's initial poses";
+    } else {
+      std::vector<geometry::Pose> poses;
+      for (const auto& p : request.poses) poses.push_back(fromPoseMessage(p));
+      tracker_->reinitialize(request.bones, poses);
+      response.message = "set " + std::to_string(request.bones.size()) + " bone pose(s)";
+    }
+    response.success = true;
+  } catch (const InputError& e) {
+    response.success = false;
+    response.message = e.what();
+  }
+  return true;
+}
+
+bool TrackerNode::onPlayBag(PlayBag::Request& request, PlayBag::Response& response) {
+  response.success = false;
+  if (!request.output_bag_path.empty()) {
+    response.message =
+        "output bags are not implemented yet; give poses_csv_path and/or "
+        "kinematics_csv_path";
+    return true;
+  }
+  try {
+    const auto start = std::chrono::steady_clock::now();
+    BagFrameReader reader(request.bag_path, request.image_topics, config_.fixed_frame);
+    registration::Tracker tracker(registrar_, initial_poses_);
+    const auto& bones = registrar_->bones();
+    std::vector<io::PoseRecord> poses;
+    std::vector<io::KinematicsRecord> kinematics;
+    std::uint32_t frames = 0;
+    std::uint32_t tracked_frames = 0;
+    reader.read(
+        [&](const BagFrame& frame) {
+          ++frames;
+          std::vector<registration::ViewImage> views;
+          for (std::size_t v = 0; v < frame.images.size(); ++v) {
+            views.push_back({frame.images[v], frame.cameras[v]});
+          }
+          registration::TrackedFrame tracked;
+          try {
+            tracked = tracker.track(views);
+          } catch (const InputError& e) {
+            ROS_WARN("tracker_node: play_bag frame %d not tracked: %s", frame.index, e.what());
+            return;
+          }
+          ++tracked_frames;
+          for (std::size_t b = 0; b < bones.size(); ++b) {
+            poses.push_back(
+                {frame.index, frame.stamp_s, bones[b].name, tracked.poses[b], tracked.status[b]});
+          }
+          for (std::size_t j = 0; j < registrar_->joints().size(); ++j) {
+            const auto& joint = registrar_->joints()[j];
+            kinematics.push_back({frame.index, frame.stamp_s, joint.name,
+                                  jointCoordinates(joint, tracked, j),
+                                  jointStatus(joint, tracked)});
+          }
+          if (frames % 50 == 0) ROS_INFO("tracker_node: play_bag frame %u", frames);
+        },
+        [&](int index, double, const std::string& reason) {
+          ++frames;
+          ROS_WARN("tracker_node: play_bag skipped frame %d: %s", index, reason.c_str());
+        });
+    if (!request.poses_csv_path.empty()) io::writePosesCsv(request.poses_csv_path, poses);
+    if (!request.kinematics_csv_path.empty()) {
+      io::writeKinematicsCsv(request.kinematics_csv_path, kinematics);
+    }
+    response.frames = frames;
+    response.frames_tracked = tracked_frames;
+    response.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    response.success = true;
+    response.message = "tracked " + std::to_string(tracked_frames) + " of " +
+                       std::to_string(frames) + " frame(s) of '" + request.bag_path + "'";
+  } catch (const std::exception& e) {
+    response.message = e.what();
+  }
+  return true;
+}
+
+}  // namespace ros_bridge
+}  // namespace fluoro_tracker
