@@ -9,7 +9,8 @@ packages=(
   libroscpp-dev librosbag-dev python3-rosbag python3-rostest libgtest-dev
   libstd-msgs-dev libgeometry-msgs-dev libsensor-msgs-dev libvisualization-msgs-dev
   libtf2-ros-dev libtf2-eigen-dev libcv-bridge-dev libimage-transport-dev
-  libmessage-filters-dev libnodeletlib-dev libdiagnostic-updater-dev
+  libmessage-filters-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev
+  libdiagnostic-updater-dev
   libeigen3-dev libopencv-dev libfcl-dev libceres-dev libassimp-dev libyaml-cpp-dev
   libboost-program-options-dev
 )

@@ -5,6 +5,7 @@
 
 #include <cv_bridge/cv_bridge.h>
 #include <tf2_eigen/tf2_eigen.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include "fluoro_tracker/JointKinematics.h"
 #include "fluoro_tracker/TrackingStatus.h"
@@ -48,6 +49,7 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
       private_nh_(private_nh),
       image_transport_(nh),
       private_image_transport_(private_nh),
+      diagnostics_(nh, private_nh),
       tf_listener_(tf_buffer_) {
   std::string config_path;
   if (!private_nh_.getParam("config", config_path) || config_path.empty()) {
@@ -69,6 +71,9 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   overlay_publisher_ = private_image_transport_.advertise("overlay", 1);
   kinematics_publisher_ = private_nh_.advertise<JointKinematics>("kinematics", 10);
   status_publisher_ = private_nh_.advertise<TrackingStatus>("status", 10);
+  marker_publisher_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
+  diagnostics_.setHardwareID("fluoroscope");
+  diagnostics_.add("tracking", this, &TrackerNode::diagnose);
   reinitialize_service_ =
       private_nh_.advertiseService("reinitialize", &TrackerNode::onReinitialize, this);
   play_bag_service_ = private_nh_.advertiseService("play_bag", &TrackerNode::onPlayBag, this);
@@ -208,6 +213,14 @@ void TrackerNode::process(const PendingFrame& frame) {
     status.frames_dropped = frames_dropped_;
   }
   status_publisher_.publish(status);
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    ++frames_tracked_;
+    for (const auto& s : tracked.status) frames_lost_ += s == "ok" ? 0 : 1;
+    last_solve_seconds_ = tracked.solve_seconds;
+  }
+  diagnostics_.update();
+  if (marker_publisher_.getNumSubscribers() > 0) publishMarkers(frame.header, fixed_frame, tracked);
 
   if (overlay_publisher_.getNumSubscribers() > 0) {
     std::vector<const imaging::SilhouetteModel*> models;
@@ -217,6 +230,75 @@ void TrackerNode::process(const PendingFrame& frame) {
                            imaging::drawContourOverlay(frame.image, camera, models, tracked.poses))
             .toImageMsg());
   }
+}
+
+void TrackerNode::publishMarkers(const std_msgs::Header& header, const std::string& fixed_frame,
+                                 const registration::TrackedFrame& tracked) {
+  visualization_msgs::MarkerArray markers;
+  const auto& bones = registrar_->bones();
+  const std_msgs::ColorRGBA colours[] = {[] {
+                                           std_msgs::ColorRGBA c;
+                                           c.r = 0.2f, c.g = 0.9f, c.b = 0.2f, c.a = 0.8f;
+                                           return c;
+                                         }(),
+                                         [] {
+                                           std_msgs::ColorRGBA c;
+                                           c.r = 1.0f, c.g = 0.6f, c.b = 0.1f, c.a = 0.8f;
+                                           return c;
+                                         }()};
+  for (std::size_t b = 0; b < bones.size(); ++b) {
+    visualization_msgs::Marker m;
+    m.header.stamp = header.stamp;
+    m.header.frame_id = fixed_frame;
+    m.ns = "bones";
+    m.id = static_cast<int>(b);
+    m.type = visualization_msgs::Marker::MESH_RESOURCE;
+    m.mesh_resource = "file://" + config_.bones[b].mesh;
+    const double scale = geometry::metresPerUnit(config_.bones[b].mesh_units);
+    m.scale.x = m.scale.y = m.scale.z = scale;
+    m.pose = toPoseMessage(tracked.poses[b]);
+    m.color = colours[b % 2];
+    markers.markers.push_back(m);
+  }
+  for (std::size_t j = 0; j < tracked.result.joints.size(); ++j) {
+    const auto& joint = tracked.result.joints[j];
+    visualization_msgs::Marker m;
+    m.header.stamp = header.stamp;
+    m.header.frame_id = fixed_frame;
+    m.ns = "contact_points";
+    m.id = static_cast<int>(j);
+    m.type = visualization_msgs::Marker::SPHERE_LIST;
+    m.pose.orientation.w = 1.0;
+    m.scale.x = m.scale.y = m.scale.z = 0.001;
+    m.color.r = 1.0f;
+    m.color.a = 1.0f;
+    for (const auto& point : joint.contact.points) {
+      geometry_msgs::Point p;
+      p.x = point.position.x();
+      p.y = point.position.y();
+      p.z = point.position.z();
+      m.points.push_back(p);
+    }
+    m.action =
+        m.points.empty() ? visualization_msgs::Marker::DELETE : visualization_msgs::Marker::ADD;
+    markers.markers.push_back(m);
+  }
+  marker_publisher_.publish(markers);
+}
+
+void TrackerNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  if (frames_tracked_ == 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no frame tracked yet");
+  } else if (frames_lost_ > 0) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, "some bones were lost");
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, "tracking");
+  }
+  status.add("frames tracked", frames_tracked_);
+  status.add("frames dropped (tracker busy)", frames_dropped_);
+  status.add("bone-frames lost", frames_lost_);
+  status.add("last solve time (s)", last_solve_seconds_);
 }
 
 bool TrackerNode::onReinitialize(Reinitialize::Request& request, Reinitialize::Response& response) {

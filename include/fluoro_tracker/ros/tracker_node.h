@@ -6,6 +6,7 @@
 #include <optional>
 #include <thread>
 
+#include <diagnostic_updater/diagnostic_updater.h>
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -27,9 +28,9 @@ namespace ros_bridge {
 // One view through an image_transport camera subscription (`image` + its `camera_info`).
 // Frames are registered on a worker thread; a frame that arrives while one is waiting is
 // replaced by it (latest wins) and counted as dropped. Publishes tf fixed_frame -> <bone>
-// stamped with the image stamp, ~kinematics, ~status and ~overlay; serves ~reinitialize and
-// ~play_bag. Bad input is logged with its reason; the node keeps running and publishes nothing
-// non-finite.
+// stamped with the image stamp, ~kinematics, ~status, ~overlay, ~markers (bone meshes and
+// contact points) and diagnostics; serves ~reinitialize and ~play_bag. Bad input is logged with its
+// reason; the node keeps running and publishes nothing non-finite.
 class TrackerNode {
  public:
   // Reads ~config (the trial YAML). Throws InputError for a missing or bad config.
@@ -50,6 +51,9 @@ class TrackerNode {
                const sensor_msgs::CameraInfoConstPtr& info);
   void work();
   void process(const PendingFrame& frame);
+  void publishMarkers(const std_msgs::Header& header, const std::string& fixed_frame,
+                      const registration::TrackedFrame& tracked);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
   bool onReinitialize(Reinitialize::Request& request, Reinitialize::Response& response);
   bool onPlayBag(PlayBag::Request& request, PlayBag::Response& response);
 
@@ -69,6 +73,8 @@ class TrackerNode {
   image_transport::Publisher overlay_publisher_;
   ros::Publisher kinematics_publisher_;
   ros::Publisher status_publisher_;
+  ros::Publisher marker_publisher_;
+  diagnostic_updater::Updater diagnostics_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
@@ -79,6 +85,10 @@ class TrackerNode {
   std::condition_variable queue_ready_;
   std::optional<PendingFrame> pending_;
   std::uint32_t frames_dropped_ = 0;
+  // For diagnostics (worker thread only, read under queue_mutex_).
+  std::uint32_t frames_tracked_ = 0;
+  std::uint32_t frames_lost_ = 0;
+  double last_solve_seconds_ = 0.0;
   bool stopping_ = false;
   std::thread worker_;
 };
