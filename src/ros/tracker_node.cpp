@@ -78,9 +78,39 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
       private_nh_.advertiseService("reinitialize", &TrackerNode::onReinitialize, this);
   play_bag_service_ = private_nh_.advertiseService("play_bag", &TrackerNode::onPlayBag, this);
   worker_ = std::thread(&TrackerNode::work, this);
-  camera_subscriber_ = image_transport_.subscribeCamera("image", 2, &TrackerNode::onImage, this);
-  ROS_INFO("tracker_node: tracking %zu bone(s) from '%s' on %s", config_.bones.size(),
-           config_path.c_str(), camera_subscriber_.getTopic().c_str());
+  int views = 1;
+  private_nh_.param("views", views, 1);
+  bool exact_sync = true;
+  private_nh_.param("exact_sync", exact_sync, true);
+  if (views == 1) {
+    camera_subscriber_ = image_transport_.subscribeCamera("image", 2, &TrackerNode::onImage, this);
+    ROS_INFO("tracker_node: tracking %zu bone(s) from '%s' on %s", config_.bones.size(),
+             config_path.c_str(), camera_subscriber_.getTopic().c_str());
+  } else if (views == 2) {
+    for (int v = 1; v <= 2; ++v) {
+      const std::string prefix = "view_" + std::to_string(v) + "/";
+      image_filters_.push_back(std::make_unique<image_transport::SubscriberFilter>(
+          image_transport_, prefix + "image", 2));
+      info_filters_.push_back(
+          std::make_unique<message_filters::Subscriber<sensor_msgs::CameraInfo>>(
+              nh_, prefix + "camera_info", 2));
+    }
+    if (exact_sync) {
+      exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
+          ExactPolicy(10), *image_filters_[0], *info_filters_[0], *image_filters_[1],
+          *info_filters_[1]);
+      exact_sync_->registerCallback(&TrackerNode::onTwoViews, this);
+    } else {
+      approximate_sync_ = std::make_unique<message_filters::Synchronizer<ApproximatePolicy>>(
+          ApproximatePolicy(10), *image_filters_[0], *info_filters_[0], *image_filters_[1],
+          *info_filters_[1]);
+      approximate_sync_->registerCallback(&TrackerNode::onTwoViews, this);
+    }
+    ROS_INFO("tracker_node: tracking %zu bone(s) from '%s' on two views (%s sync)",
+             config_.bones.size(), config_path.c_str(), exact_sync ? "exact" : "approximate");
+  } else {
+    throw InputError("tracker_node: ~views must be 1 or 2, not " + std::to_string(views));
+  }
 }
 
 TrackerNode::~TrackerNode() {
@@ -95,16 +125,30 @@ TrackerNode::~TrackerNode() {
 
 void TrackerNode::onImage(const sensor_msgs::ImageConstPtr& image,
                           const sensor_msgs::CameraInfoConstPtr& info) {
+  enqueue({image}, {info});
+}
+
+void TrackerNode::onTwoViews(const sensor_msgs::ImageConstPtr& image1,
+                             const sensor_msgs::CameraInfoConstPtr& info1,
+                             const sensor_msgs::ImageConstPtr& image2,
+                             const sensor_msgs::CameraInfoConstPtr& info2) {
+  enqueue({image1, image2}, {info1, info2});
+}
+
+void TrackerNode::enqueue(const std::vector<sensor_msgs::ImageConstPtr>& images,
+                          const std::vector<sensor_msgs::CameraInfoConstPtr>& infos) {
   PendingFrame frame;
-  try {
-    frame.image = fromImageMessage(*image);
-  } catch (const InputError& e) {
-    ROS_ERROR_THROTTLE(5.0, "tracker_node: frame at %.3f skipped: %s", image->header.stamp.toSec(),
-                       e.what());
-    return;
+  for (std::size_t v = 0; v < images.size(); ++v) {
+    try {
+      frame.images.push_back(fromImageMessage(*images[v]));
+    } catch (const InputError& e) {
+      ROS_ERROR_THROTTLE(5.0, "tracker_node: frame at %.3f skipped: %s",
+                         images[v]->header.stamp.toSec(), e.what());
+      return;
+    }
+    frame.infos.push_back(*infos[v]);
   }
-  frame.info = *info;
-  frame.header = image->header;
+  frame.header = images.front()->header;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     if (pending_) ++frames_dropped_;  // the waiting frame is replaced: latest wins
@@ -128,39 +172,42 @@ void TrackerNode::work() {
 }
 
 void TrackerNode::process(const PendingFrame& frame) {
-  geometry::XrayCamera camera;
+  std::vector<registration::ViewImage> views;
+  std::string fixed_frame;
   try {
-    camera = fromCameraInfo(frame.info);
-    if (frame.image.cols != camera.width() || frame.image.rows != camera.height()) {
-      throw InputError("the image is " + std::to_string(frame.image.cols) + "x" +
-                       std::to_string(frame.image.rows) + " but its camera_info says " +
-                       std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
+    for (std::size_t v = 0; v < frame.images.size(); ++v) {
+      geometry::XrayCamera camera = fromCameraInfo(frame.infos[v]);
+      const cv::Mat& image = frame.images[v];
+      if (image.cols != camera.width() || image.rows != camera.height()) {
+        throw InputError("the image of " + camera.frameId() + " is " + std::to_string(image.cols) +
+                         "x" + std::to_string(image.rows) + " but its camera_info says " +
+                         std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
+      }
+      if (v == 0)
+        fixed_frame = config_.fixed_frame.empty() ? camera.frameId() : config_.fixed_frame;
+      if (fixed_frame != camera.frameId()) {
+        try {
+          const auto transform = tf_buffer_.lookupTransform(fixed_frame, camera.frameId(),
+                                                            frame.header.stamp, ros::Duration(0.2));
+          camera.setWorldFromCamera(tf2::transformToEigen(transform));
+        } catch (const tf2::TransformException& e) {
+          throw InputError("no transform " + fixed_frame + " <- " + camera.frameId() + ": " +
+                           e.what());
+        }
+      }
+      views.push_back({image, camera});
     }
   } catch (const InputError& e) {
     ROS_ERROR_THROTTLE(5.0, "tracker_node: frame at %.3f skipped: %s", frame.header.stamp.toSec(),
                        e.what());
     return;
   }
-  const std::string fixed_frame =
-      config_.fixed_frame.empty() ? camera.frameId() : config_.fixed_frame;
-  if (fixed_frame != camera.frameId()) {
-    try {
-      const auto transform = tf_buffer_.lookupTransform(fixed_frame, camera.frameId(),
-                                                        frame.header.stamp, ros::Duration(0.2));
-      camera.setWorldFromCamera(tf2::transformToEigen(transform));
-    } catch (const tf2::TransformException& e) {
-      ROS_ERROR_THROTTLE(5.0, "tracker_node: frame at %.3f skipped: no transform %s <- %s: %s",
-                         frame.header.stamp.toSec(), fixed_frame.c_str(), camera.frameId().c_str(),
-                         e.what());
-      return;
-    }
-  }
 
   registration::TrackedFrame tracked;
   {
     std::lock_guard<std::mutex> lock(tracker_mutex_);
     try {
-      tracked = tracker_->track({{frame.image, camera}});
+      tracked = tracker_->track(views);
     } catch (const InputError& e) {
       ROS_ERROR_THROTTLE(5.0, "tracker_node: frame at %.3f not tracked: %s",
                          frame.header.stamp.toSec(), e.what());
@@ -226,8 +273,9 @@ void TrackerNode::process(const PendingFrame& frame) {
     std::vector<const imaging::SilhouetteModel*> models;
     for (const auto& bone : bones) models.push_back(bone.silhouette.get());
     overlay_publisher_.publish(
-        cv_bridge::CvImage(frame.header, "bgr8",
-                           imaging::drawContourOverlay(frame.image, camera, models, tracked.poses))
+        cv_bridge::CvImage(
+            frame.header, "bgr8",
+            imaging::drawContourOverlay(views[0].image, views[0].camera, models, tracked.poses))
             .toImageMsg());
   }
 }

@@ -5,9 +5,15 @@
 #include <mutex>
 #include <optional>
 #include <thread>
+#include <tuple>
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <image_transport/image_transport.h>
+#include <image_transport/subscriber_filter.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/sync_policies/exact_time.h>
+#include <message_filters/synchronizer.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -25,7 +31,9 @@ namespace fluoro_tracker {
 namespace ros_bridge {
 
 // The tracking node (docs/interfaces.md): a thin ROS wrapper around registration::Tracker.
-// One view through an image_transport camera subscription (`image` + its `camera_info`).
+// One view through an image_transport camera subscription (`image` + its `camera_info`), or
+// two (bi-plane, ~views: 2) through `view_1/image`, `view_1/camera_info`, `view_2/...`
+// synchronised by message_filters (exact stamps, or approximate with ~exact_sync: false).
 // Frames are registered on a worker thread; a frame that arrives while one is waiting is
 // replaced by it (latest wins) and counted as dropped. Publishes tf fixed_frame -> <bone>
 // stamped with the image stamp, ~kinematics, ~status, ~overlay, ~markers (bone meshes and
@@ -42,13 +50,25 @@ class TrackerNode {
 
  private:
   struct PendingFrame {
-    cv::Mat image;
-    sensor_msgs::CameraInfo info;
-    std_msgs::Header header;
+    std::vector<cv::Mat> images;  // one per view
+    std::vector<sensor_msgs::CameraInfo> infos;
+    std_msgs::Header header;  // the first view's
   };
+  using ExactPolicy =
+      message_filters::sync_policies::ExactTime<sensor_msgs::Image, sensor_msgs::CameraInfo,
+                                                sensor_msgs::Image, sensor_msgs::CameraInfo>;
+  using ApproximatePolicy =
+      message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::CameraInfo,
+                                                      sensor_msgs::Image, sensor_msgs::CameraInfo>;
 
   void onImage(const sensor_msgs::ImageConstPtr& image,
                const sensor_msgs::CameraInfoConstPtr& info);
+  void onTwoViews(const sensor_msgs::ImageConstPtr& image1,
+                  const sensor_msgs::CameraInfoConstPtr& info1,
+                  const sensor_msgs::ImageConstPtr& image2,
+                  const sensor_msgs::CameraInfoConstPtr& info2);
+  void enqueue(const std::vector<sensor_msgs::ImageConstPtr>& images,
+               const std::vector<sensor_msgs::CameraInfoConstPtr>& infos);
   void work();
   void process(const PendingFrame& frame);
   void publishMarkers(const std_msgs::Header& header, const std::string& fixed_frame,
@@ -69,7 +89,13 @@ class TrackerNode {
 
   image_transport::ImageTransport image_transport_;
   image_transport::ImageTransport private_image_transport_;  // for ~overlay
-  image_transport::CameraSubscriber camera_subscriber_;
+  image_transport::CameraSubscriber camera_subscriber_;      // one view
+  // Two views (~views: 2): view_1/image, view_1/camera_info, view_2/..., synchronised exactly
+  // or approximately (~exact_sync).
+  std::vector<std::unique_ptr<image_transport::SubscriberFilter>> image_filters_;
+  std::vector<std::unique_ptr<message_filters::Subscriber<sensor_msgs::CameraInfo>>> info_filters_;
+  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
+  std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
   image_transport::Publisher overlay_publisher_;
   ros::Publisher kinematics_publisher_;
   ros::Publisher status_publisher_;
