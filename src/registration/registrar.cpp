@@ -151,6 +151,48 @@ class EdgeOffsetPrior : public ceres::SizedCostFunction<1, 1> {
   double inverse_sigma_;
 };
 
+// Per bone, the covariance of its pose from the solved increments: Ceres' (J^T J)^-1 of the
+// increment [w, t], scaled by the residual variance 2 cost / (residuals - parameters), then
+// carried to ROS's ordering: the origin o moves by t - [o - c]x w, the rotation by w.
+void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& summary,
+                         std::vector<std::array<double, 6>>& increments,
+                         const std::vector<Eigen::Vector3d>& centres,
+                         const std::vector<geometry::Pose>& poses, RegistrationResult* result) {
+  const std::size_t bones = increments.size();
+  result->covariances.assign(bones, Eigen::Matrix<double, 6, 6>::Zero());
+  result->covariance_valid.assign(bones, false);
+  std::vector<std::pair<const double*, const double*>> blocks;
+  for (auto& inc : increments) {
+    if (problem->HasParameterBlock(inc.data()) && !problem->IsParameterBlockConstant(inc.data())) {
+      blocks.emplace_back(inc.data(), inc.data());
+    }
+  }
+  if (blocks.empty()) return;
+  ceres::Covariance::Options options;
+  options.algorithm_type = ceres::DENSE_SVD;
+  options.null_space_rank = -1;  // pseudo-inverse: weakly constrained directions stay large
+  options.num_threads = 1;
+  ceres::Covariance covariance(options);
+  if (!covariance.Compute(blocks, problem)) return;
+  const int dof = summary.num_residuals_reduced - summary.num_effective_parameters_reduced;
+  const double variance = dof > 0 ? 2.0 * summary.final_cost / dof : 1.0;
+  for (std::size_t b = 0; b < bones; ++b) {
+    const double* block = increments[b].data();
+    if (!problem->HasParameterBlock(block) || problem->IsParameterBlockConstant(block)) continue;
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c;
+    if (!covariance.GetCovarianceBlock(block, block, c.data())) continue;
+    const Eigen::Vector3d arm = poses[b].translation() - centres[b];
+    Eigen::Matrix3d skew;
+    skew << 0, -arm.z(), arm.y(), arm.z(), 0, -arm.x(), -arm.y(), arm.x(), 0;
+    Eigen::Matrix<double, 6, 6> to_ros = Eigen::Matrix<double, 6, 6>::Zero();
+    to_ros.block<3, 3>(0, 0) = -skew;                        // d origin / d w
+    to_ros.block<3, 3>(0, 3) = Eigen::Matrix3d::Identity();  // d origin / d t
+    to_ros.block<3, 3>(3, 0) = Eigen::Matrix3d::Identity();  // d rotation / d w
+    result->covariances[b] = variance * to_ros * c * to_ros.transpose();
+    result->covariance_valid[b] = result->covariances[b].allFinite();
+  }
+}
+
 }  // namespace
 
 RegistrationSettings::EdgeOffsetModel edgeOffsetModelFromName(const std::string& name) {
@@ -377,6 +419,9 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
         result.cost_evaluations += summary.num_residual_evaluations;
         result.solver_iterations += static_cast<int>(summary.iterations.size());
         result.final_cost = summary.final_cost;
+        if (settings_.compute_covariance) {
+          estimateCovariances(&problem, summary, increments, centres, result.poses, &result);
+        }
 
         double max_translation = 0.0;
         double max_rotation = 0.0;

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <cv_bridge/cv_bridge.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -57,8 +58,9 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   }
   config_ = io::loadTrialConfig(config_path);
   models_ = io::loadTrialModels(config_);
-  registrar_ = std::make_shared<registration::Registrar>(models_.bones, config_.registration,
-                                                         models_.joints);
+  registration::RegistrationSettings settings = config_.registration;
+  private_nh_.param("covariance", settings.compute_covariance, true);
+  registrar_ = std::make_shared<registration::Registrar>(models_.bones, settings, models_.joints);
   for (const auto& bone : config_.bones) {
     if (!bone.initial_pose) {
       throw InputError("tracker_node: bone '" + bone.name + "' has no initial_pose in '" +
@@ -72,6 +74,10 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   kinematics_publisher_ = private_nh_.advertise<JointKinematics>("kinematics", 10);
   status_publisher_ = private_nh_.advertise<TrackingStatus>("status", 10);
   marker_publisher_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
+  for (const auto& bone : config_.bones) {
+    pose_publishers_.push_back(
+        private_nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>(bone.name + "/pose", 10));
+  }
   diagnostics_.setHardwareID("fluoroscope");
   diagnostics_.add("tracking", this, &TrackerNode::diagnose);
   reinitialize_service_ =
@@ -225,6 +231,22 @@ void TrackerNode::process(const PendingFrame& frame) {
     transforms.push_back(t);
   }
   tf_broadcaster_.sendTransform(transforms);
+  for (std::size_t b = 0; b < bones.size(); ++b) {
+    geometry_msgs::PoseWithCovarianceStamped pose;
+    pose.header.stamp = frame.header.stamp;
+    pose.header.frame_id = fixed_frame;
+    pose.pose.pose = toPoseMessage(tracked.poses[b]);
+    const bool valid = b < tracked.result.covariance_valid.size() &&
+                       tracked.result.covariance_valid[b] && tracked.status[b] == "ok";
+    for (int r = 0; r < 6; ++r) {
+      for (int c = 0; c < 6; ++c) {
+        // Unknown: -1 on the diagonal's first element, as REP-145-style consumers expect.
+        pose.pose.covariance[6 * r + c] =
+            valid ? tracked.result.covariances[b](r, c) : (r == 0 && c == 0 ? -1.0 : 0.0);
+      }
+    }
+    pose_publishers_[b].publish(pose);
+  }
 
   for (std::size_t j = 0; j < registrar_->joints().size(); ++j) {
     const auto& joint = registrar_->joints()[j];

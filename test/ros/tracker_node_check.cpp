@@ -2,6 +2,7 @@
 #include <cmath>
 #include <mutex>
 
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -39,6 +40,7 @@ TEST(TrackerNode, PublishesTfNearTheTruthAndFiniteKinematics) {
   std::mutex mutex;
   std::vector<TrackingStatus> statuses;
   std::vector<JointKinematics> kinematics;
+  std::vector<geometry_msgs::PoseWithCovarianceStamped> femur_poses;
   auto status_sub = nh.subscribe<TrackingStatus>("/tracker_node/status", 100,
                                                  [&](const TrackingStatus::ConstPtr& m) {
                                                    std::lock_guard<std::mutex> lock(mutex);
@@ -49,6 +51,12 @@ TEST(TrackerNode, PublishesTfNearTheTruthAndFiniteKinematics) {
                                                         std::lock_guard<std::mutex> lock(mutex);
                                                         kinematics.push_back(*m);
                                                       });
+  auto pose_sub = nh.subscribe<geometry_msgs::PoseWithCovarianceStamped>(
+      "/tracker_node/femur/pose", 100,
+      [&](const geometry_msgs::PoseWithCovarianceStamped::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        femur_poses.push_back(*m);
+      });
   ros::AsyncSpinner spinner(1);
   spinner.start();
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(60.0);
@@ -103,6 +111,18 @@ TEST(TrackerNode, PublishesTfNearTheTruthAndFiniteKinematics) {
     for (double a : k.angles) EXPECT_TRUE(std::isfinite(a));
     for (double t : k.translations) EXPECT_TRUE(std::isfinite(t));
   }
+  // Poses with covariance: finite, with a positive variance on each diagonal element.
+  ASSERT_FALSE(femur_poses.empty());
+  int with_covariance = 0;
+  for (const auto& p : femur_poses) {
+    EXPECT_EQ(p.header.frame_id, fixed_frame);
+    for (double v : p.pose.covariance) EXPECT_TRUE(std::isfinite(v));
+    if (p.pose.covariance[0] > 0.0) {
+      ++with_covariance;
+      for (int k = 0; k < 6; ++k) EXPECT_GT(p.pose.covariance[7 * k], 0.0);
+    }
+  }
+  EXPECT_GE(with_covariance, 0.9 * femur_poses.size());
   // Every frame is either tracked or counted as dropped.
   EXPECT_LE(statuses.size() + statuses.back().frames_dropped, 90u);
 }

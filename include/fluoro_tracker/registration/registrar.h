@@ -74,6 +74,9 @@ struct RegistrationSettings {
   // Stop when no bone moves more than this between outer iterations.
   double converged_translation_m = 2e-5;
   double converged_rotation_rad = 2e-4;
+  // Estimate each bone's pose covariance at the solution (Ceres' covariance of the last solve,
+  // scaled by the residual variance). Costs a few milliseconds per outer iteration.
+  bool compute_covariance = false;
   imaging::EdgeMapSettings edges;
 
   void validate() const;
@@ -139,6 +142,12 @@ struct RegistrationResult {
   std::vector<bool> diverged;
   // Per joint of the registrar, at the final poses.
   std::vector<JointResult> joints;
+  // With compute_covariance, per bone: the covariance of its pose in the fixed frame, ordered
+  // as ROS's PoseWithCovariance (x, y, z in m; rotations about the fixed X, Y, Z in rad), from
+  // the last solve. Contour samples are not independent, so it is optimistic; zero when it
+  // could not be computed (covariance_valid false).
+  std::vector<Eigen::Matrix<double, 6, 6>> covariances;
+  std::vector<bool> covariance_valid;
 };
 
 // Registers all bones of one frame jointly, in any number of views, from starting poses: the

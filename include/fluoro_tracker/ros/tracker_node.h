@@ -100,6 +100,7 @@ class TrackerNode {
   ros::Publisher kinematics_publisher_;
   ros::Publisher status_publisher_;
   ros::Publisher marker_publisher_;
+  std::vector<ros::Publisher> pose_publishers_;  // ~<bone>/pose, with covariance
   diagnostic_updater::Updater diagnostics_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   tf2_ros::Buffer tf_buffer_;

@@ -191,6 +191,34 @@ TEST(Registrar, StageImageWeightsApplyPerBone) {
   EXPECT_LT(std::hypot(femur_error.x(), femur_error.y()), 0.0005);
 }
 
+// The pose covariance is symmetric, positive, and says what single-plane registration knows:
+// translation along the beam (optical z) is far less certain than across it.
+TEST(Registrar, CovarianceIsLargestAlongTheBeam) {
+  const Scene scene;
+  registration::RegistrationSettings settings;
+  settings.compute_covariance = true;
+  const registration::Registrar registrar(scene.bones, settings);
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const auto result =
+      registrar.solve({{scene.frame.images[0], scene.simulator.views()[0].camera}},
+                      {offset(truth[0], {0.0005, 0.0, 0.001}, Eigen::Vector3d::Zero()), truth[1]});
+  ASSERT_EQ(result.covariances.size(), 2u);
+  for (int b = 0; b < 2; ++b) {
+    ASSERT_TRUE(result.covariance_valid[b]) << b;
+    const Eigen::Matrix<double, 6, 6>& c = result.covariances[b];
+    EXPECT_LT((c - c.transpose()).norm(), 1e-9 * c.norm());
+    EXPECT_GT(c.selfadjointView<Eigen::Lower>().eigenvalues().minCoeff(), -1e-12 * c.norm());
+    EXPECT_GT(c(2, 2), 10.0 * c(0, 0)) << scene.bones[b].name;
+    EXPECT_GT(c(2, 2), 10.0 * c(1, 1)) << scene.bones[b].name;
+    // In-plane standard deviation well under a millimetre.
+    EXPECT_LT(std::sqrt(c(0, 0)), 0.001);
+  }
+  // Off by default.
+  EXPECT_TRUE(registration::Registrar(scene.bones, registration::RegistrationSettings())
+                  .solve({{scene.frame.images[0], scene.simulator.views()[0].camera}}, truth)
+                  .covariances.empty());
+}
+
 TEST(Registrar, JointsMustNameTwoBonesOfTheRegistrar) {
   const Scene scene;
   registration::JointModel knee;
