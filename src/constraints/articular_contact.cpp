@@ -104,6 +104,7 @@ void ContactSettings::validate() const {
   if (!(dead_band_mm >= 0.0)) throw InputError("contact: dead_band_mm must be >= 0");
   if (!(exponent > 0.0)) throw InputError("contact: exponent must be > 0");
   if (!(weight >= 0.0)) throw InputError("contact: weight must be >= 0");
+  if (!(loaded_weight >= 0.0)) throw InputError("contact: loaded_weight must be >= 0");
   if (!(region.max_angle_deg > 0.0 && region.max_angle_deg <= 180.0)) {
     throw InputError("contact: region max_angle_deg must be in (0, 180]");
   }

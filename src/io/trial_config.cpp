@@ -78,7 +78,8 @@ constraints::ContactSettings readContactSettings(const YAML::Node& joint,
     return c;
   }
   const YamlSection section(node, context + ".contact");
-  section.allowOnly({"enabled", "measure", "dead_band_mm", "exponent", "weight", "region",
+  section.allowOnly({"enabled", "measure", "dead_band_mm", "exponent", "weight", "loaded_weight",
+                     "region",
                      "grid_spacing_mm", "grid_margin_mm", "grid_exact_band_mm"});
   section.read("enabled", &c.enabled);
   std::string measure = constraints::contactMeasureName(c.measure);
@@ -86,6 +87,7 @@ constraints::ContactSettings readContactSettings(const YAML::Node& joint,
   section.read("dead_band_mm", &c.dead_band_mm);
   section.read("exponent", &c.exponent);
   section.read("weight", &c.weight);
+  section.read("loaded_weight", &c.loaded_weight);
   double spacing_mm = c.grid.spacing_m * 1e3;
   double margin_mm = c.grid.margin_m * 1e3;
   double band_mm = c.grid.exact_band_m * 1e3;
@@ -355,6 +357,7 @@ void saveTrialConfig(const std::string& path, const TrialConfig& config) {
       out << YAML::Key << "dead_band_mm" << YAML::Value << c.dead_band_mm;
       out << YAML::Key << "exponent" << YAML::Value << c.exponent;
       out << YAML::Key << "weight" << YAML::Value << c.weight;
+      out << YAML::Key << "loaded_weight" << YAML::Value << c.loaded_weight;
       out << YAML::Key << "grid_spacing_mm" << YAML::Value << c.grid.spacing_m * 1e3;
       out << YAML::Key << "grid_margin_mm" << YAML::Value << c.grid.margin_m * 1e3;
       out << YAML::Key << "grid_exact_band_mm" << YAML::Value << c.grid.exact_band_m * 1e3;

@@ -276,7 +276,8 @@ Registrar::Registrar(std::vector<BoneModel> bones, RegistrationSettings settings
 }
 
 RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
-                                    const std::vector<geometry::Pose>& initial_poses) const {
+                                    const std::vector<geometry::Pose>& initial_poses,
+                                    const std::vector<bool>& loaded) const {
   if (views.empty()) throw InputError("registration: no views");
   if (initial_poses.size() != bones_.size()) {
     throw InputError("registration: " + std::to_string(initial_poses.size()) + " pose(s) for " +
@@ -394,6 +395,13 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
             problem.AddResidualBlock(
                 new ContactCost(joint.contact.get(), parent_pose, centres[joint.parent], child_pose,
                                 centres[joint.child]),
+                nullptr, parent_increment, child_increment);
+          }
+          const std::size_t j = static_cast<std::size_t>(&joint - joints_.data());
+          if (joint.loaded_contact && with_contact && j < loaded.size() && loaded[j]) {
+            problem.AddResidualBlock(
+                new ContactCost(joint.loaded_contact.get(), parent_pose, centres[joint.parent],
+                                child_pose, centres[joint.child]),
                 nullptr, parent_increment, child_increment);
           }
           if (joint.ligaments.enabled && stage.ligaments) {

@@ -44,7 +44,7 @@ void Tracker::reinitialize(const std::vector<std::string>& bones,
   previous_.clear();
 }
 
-TrackedFrame Tracker::track(const std::vector<ViewImage>& views) {
+TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vector<bool>& loaded) {
   std::vector<geometry::Pose> guess = poses_;
   if (previous_.size() == poses_.size()) {
     // Constant velocity: repeat the last frame-to-frame motion.
@@ -54,7 +54,7 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views) {
   }
   const auto start = std::chrono::steady_clock::now();
   TrackedFrame frame;
-  frame.result = registrar_->solve(views, guess);
+  frame.result = registrar_->solve(views, guess, loaded);
   frame.solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   frame.poses = frame.result.poses;

@@ -84,6 +84,12 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
       private_nh_.advertiseService("reinitialize", &TrackerNode::onReinitialize, this);
   play_bag_service_ = private_nh_.advertiseService("play_bag", &TrackerNode::onPlayBag, this);
   worker_ = std::thread(&TrackerNode::work, this);
+  private_nh_.param("load_threshold_n", load_threshold_n_, 0.0);
+  private_nh_.param("compression_sign", compression_sign_, -1.0);
+  private_nh_.param("wrench_max_age_s", wrench_max_age_s_, 0.1);
+  if (load_threshold_n_ > 0.0) {
+    wrench_subscriber_ = nh_.subscribe("wrench", 10, &TrackerNode::onWrench, this);
+  }
   int views = 1;
   private_nh_.param("views", views, 1);
   bool exact_sync = true;
@@ -209,11 +215,13 @@ void TrackerNode::process(const PendingFrame& frame) {
     return;
   }
 
+  const double force_n = compressiveForceAt(frame.header.stamp);
+  const bool loaded = load_threshold_n_ > 0.0 && force_n > load_threshold_n_;
   registration::TrackedFrame tracked;
   {
     std::lock_guard<std::mutex> lock(tracker_mutex_);
     try {
-      tracked = tracker_->track(views);
+      tracked = tracker_->track(views, std::vector<bool>(registrar_->joints().size(), loaded));
     } catch (const InputError& e) {
       ROS_ERROR_THROTTLE(5.0, "tracker_node: frame at %.3f not tracked: %s",
                          frame.header.stamp.toSec(), e.what());
@@ -263,6 +271,8 @@ void TrackerNode::process(const PendingFrame& frame) {
     message.translation_names = {"anterior", "superior", "lateral"};
     message.translations = {c.x_m, c.y_m, c.z_m};
     message.status = jointStatus(joint, tracked);
+    message.compressive_force_n = force_n;
+    message.loaded = loaded && joint.loaded_contact != nullptr;
     kinematics_publisher_.publish(message);
   }
 
@@ -354,6 +364,22 @@ void TrackerNode::publishMarkers(const std_msgs::Header& header, const std::stri
     markers.markers.push_back(m);
   }
   marker_publisher_.publish(markers);
+}
+
+void TrackerNode::onWrench(const geometry_msgs::WrenchStamped::ConstPtr& wrench) {
+  if (!std::isfinite(wrench->wrench.force.z)) {
+    ROS_WARN_THROTTLE(5.0, "tracker_node: a wrench with a non-finite force was ignored");
+    return;
+  }
+  std::lock_guard<std::mutex> lock(wrench_mutex_);
+  last_wrench_ = *wrench;
+}
+
+double TrackerNode::compressiveForceAt(const ros::Time& stamp) {
+  std::lock_guard<std::mutex> lock(wrench_mutex_);
+  if (!last_wrench_) return 0.0;
+  if (std::abs((last_wrench_->header.stamp - stamp).toSec()) > wrench_max_age_s_) return 0.0;
+  return std::max(0.0, compression_sign_ * last_wrench_->wrench.force.z);
 }
 
 void TrackerNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {

@@ -3,6 +3,7 @@
 #include <mutex>
 
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <geometry_msgs/WrenchStamped.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -59,6 +60,19 @@ TEST(TrackerNode, PublishesTfNearTheTruthAndFiniteKinematics) {
       });
   ros::AsyncSpinner spinner(1);
   spinner.start();
+  // A joint load of 500 N compression (force along -z), as an instrumented tray would send.
+  bool check_wrench = false;
+  ros::NodeHandle("~").getParam("check_wrench", check_wrench);
+  ros::Publisher wrench_pub = nh.advertise<geometry_msgs::WrenchStamped>("/wrench", 10);
+  ros::WallTimer wrench_timer;
+  if (check_wrench) {
+    wrench_timer = nh.createWallTimer(ros::WallDuration(0.01), [&](const ros::WallTimerEvent&) {
+      geometry_msgs::WrenchStamped w;
+      w.header.stamp = ros::Time::now();
+      w.wrench.force.z = -500.0;
+      wrench_pub.publish(w);
+    });
+  }
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(60.0);
   while (ros::WallTime::now() < deadline) {
     {
@@ -106,10 +120,20 @@ TEST(TrackerNode, PublishesTfNearTheTruthAndFiniteKinematics) {
   EXPECT_GE(close, 0.9 * compared) << close << " of " << compared << " bone poses near the truth";
   EXPECT_GE(ok, 0.95 * bone_frames) << ok << " of " << bone_frames << " bone-frames ok";
   ASSERT_FALSE(kinematics.empty());
+  int loaded = 0;
   for (const auto& k : kinematics) {
     EXPECT_EQ(k.joint, "knee");
+    if (k.loaded) {
+      ++loaded;
+      EXPECT_NEAR(k.compressive_force_n, 500.0, 1e-9);
+    }
     for (double a : k.angles) EXPECT_TRUE(std::isfinite(a));
     for (double t : k.translations) EXPECT_TRUE(std::isfinite(t));
+  }
+  if (check_wrench) {
+    EXPECT_GE(loaded, 0.5 * kinematics.size()) << "the joint load was not used";
+  } else {
+    EXPECT_EQ(loaded, 0);
   }
   // Poses with covariance: finite, with a positive variance on each diagonal element.
   ASSERT_FALSE(femur_poses.empty());

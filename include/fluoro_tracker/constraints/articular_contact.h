@@ -52,6 +52,10 @@ struct ContactSettings {
   // as a hard constraint against the image terms.
   double exponent = 0.7;
   double weight = 20.0;
+  // When the joint is known to be loaded (e.g. a force plate or instrumented tray reads a
+  // compressive force), a stay-in-contact term (the separation measure, exponent 1) with this
+  // weight joins for that frame.
+  double loaded_weight = 20.0;
   ContactRegion region;
   geometry::SignedDistanceGridSettings grid;
 

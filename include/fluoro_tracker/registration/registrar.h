@@ -110,6 +110,8 @@ struct JointModel {
   geometry::Pose parent_anatomical = geometry::Pose::Identity();
   geometry::Pose child_anatomical = geometry::Pose::Identity();
   std::shared_ptr<const constraints::ArticularContact> contact;  // none: no contact term
+  // The stay-in-contact term used in frames where the joint is loaded (solve's `loaded`).
+  std::shared_ptr<const constraints::ArticularContact> loaded_contact;
   constraints::LigamentSettings ligaments;                       // enabled = false: no springs
 
   // The knee coordinates (kinematics::kneeCoordinates) of bones at these mesh-frame poses.
@@ -165,8 +167,11 @@ class Registrar {
   const std::vector<JointModel>& joints() const { return joints_; }
 
   // Throws InputError for a wrong number of poses, no views, non-finite poses, or bad images.
+  // `loaded`: per joint, whether it is known to be loaded in this frame (its loaded_contact
+  // term then joins); empty: none is.
   RegistrationResult solve(const std::vector<ViewImage>& views,
-                           const std::vector<geometry::Pose>& initial_poses) const;
+                           const std::vector<geometry::Pose>& initial_poses,
+                           const std::vector<bool>& loaded = {}) const;
 
  private:
   std::vector<BoneModel> bones_;

@@ -39,7 +39,8 @@ class Tracker {
 
   // Registers one frame (all views). Throws InputError for unusable input (empty image,
   // mismatched sizes, a bone behind the source); the state is then unchanged.
-  TrackedFrame track(const std::vector<ViewImage>& views);
+  // `loaded`: per joint, whether it is known to be loaded in this frame (see Registrar::solve).
+  TrackedFrame track(const std::vector<ViewImage>& views, const std::vector<bool>& loaded = {});
 
  private:
   std::shared_ptr<const Registrar> registrar_;

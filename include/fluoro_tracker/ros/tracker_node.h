@@ -8,6 +8,7 @@
 #include <tuple>
 
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <geometry_msgs/WrenchStamped.h>
 #include <image_transport/image_transport.h>
 #include <image_transport/subscriber_filter.h>
 #include <message_filters/subscriber.h>
@@ -74,6 +75,9 @@ class TrackerNode {
   void publishMarkers(const std_msgs::Header& header, const std::string& fixed_frame,
                       const registration::TrackedFrame& tracked);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+  void onWrench(const geometry_msgs::WrenchStamped::ConstPtr& wrench);
+  // The compressive force (N) measured near `stamp`, or 0 if none is recent enough.
+  double compressiveForceAt(const ros::Time& stamp);
   bool onReinitialize(Reinitialize::Request& request, Reinitialize::Response& response);
   bool onPlayBag(PlayBag::Request& request, PlayBag::Response& response);
 
@@ -106,6 +110,15 @@ class TrackerNode {
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   ros::ServiceServer reinitialize_service_;
+  // Optional joint load (`wrench`, e.g. an instrumented tray or force plate): when the
+  // compressive force, compression_sign x force.z, exceeds ~load_threshold_n within
+  // ~wrench_max_age_s of an image, every joint's loaded (stay-in-contact) term joins.
+  ros::Subscriber wrench_subscriber_;
+  double load_threshold_n_ = 0.0;  // <= 0: no wrench input
+  double compression_sign_ = -1.0;
+  double wrench_max_age_s_ = 0.1;
+  std::mutex wrench_mutex_;
+  std::optional<geometry_msgs::WrenchStamped> last_wrench_;
   ros::ServiceServer play_bag_service_;
 
   std::mutex queue_mutex_;

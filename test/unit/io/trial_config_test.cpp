@@ -77,6 +77,7 @@ TEST(TrialConfig, SaveThenLoadRoundTrip) {
   knee.ligaments.stiffness_per_mm = 3.5;
   knee.contact.measure = constraints::ContactMeasure::kPenetrationDepth;
   knee.contact.weight = 7.5;
+  knee.contact.loaded_weight = 3.0;
   knee.contact.exponent = 1.0;
   knee.contact.dead_band_mm = 0.5;
   knee.contact.grid.spacing_m = 0.5e-3;
@@ -100,6 +101,7 @@ TEST(TrialConfig, SaveThenLoadRoundTrip) {
   EXPECT_TRUE(contact.enabled);
   EXPECT_EQ(contact.measure, constraints::ContactMeasure::kPenetrationDepth);
   EXPECT_DOUBLE_EQ(contact.weight, 7.5);
+  EXPECT_DOUBLE_EQ(contact.loaded_weight, 3.0);
   EXPECT_DOUBLE_EQ(contact.exponent, 1.0);
   EXPECT_DOUBLE_EQ(contact.dead_band_mm, 0.5);
   EXPECT_NEAR(contact.grid.spacing_m, 0.5e-3, 1e-12);
@@ -246,6 +248,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.joints[0].contact.measure, contact.measure);
   EXPECT_DOUBLE_EQ(c.joints[0].contact.weight, contact.weight);
   EXPECT_DOUBLE_EQ(c.joints[0].contact.exponent, contact.exponent);
+  EXPECT_DOUBLE_EQ(c.joints[0].contact.loaded_weight, contact.loaded_weight);
   EXPECT_DOUBLE_EQ(c.joints[0].contact.dead_band_mm, contact.dead_band_mm);
   EXPECT_NEAR(c.joints[0].contact.grid.spacing_m, contact.grid.spacing_m, 1e-12);
   EXPECT_NEAR(c.joints[0].contact.grid.margin_m, contact.grid.margin_m, 1e-12);
