@@ -16,34 +16,12 @@
 #include "fluoro_tracker/io/poses_csv.h"
 #include "fluoro_tracker/ros/bag_frame_reader.h"
 #include "fluoro_tracker/ros/conversions.h"
+#include "fluoro_tracker/ros/result_bag.h"
+#include "fluoro_tracker/ros/tracking_messages.h"
 
 namespace fluoro_tracker {
 namespace ros_bridge {
-namespace {
-
-bool isFinite(const kinematics::KneeCoordinates& c) {
-  return std::isfinite(c.flexion_rad) && std::isfinite(c.adduction_rad) &&
-         std::isfinite(c.internal_rotation_rad) && std::isfinite(c.x_m) && std::isfinite(c.y_m) &&
-         std::isfinite(c.z_m);
-}
-
-// A joint's coordinates at a tracked frame: from the registration when it ran, else from the
-// poses reported.
-kinematics::KneeCoordinates jointCoordinates(const registration::JointModel& joint,
-                                             const registration::TrackedFrame& tracked,
-                                             std::size_t index) {
-  return index < tracked.result.joints.size()
-             ? tracked.result.joints[index].coordinates
-             : joint.coordinates(tracked.poses[joint.parent], tracked.poses[joint.child]);
-}
-
-std::string jointStatus(const registration::JointModel& joint,
-                        const registration::TrackedFrame& tracked) {
-  return tracked.status[joint.parent] == "ok" && tracked.status[joint.child] == "ok" ? "ok"
-                                                                                     : "lost";
-}
-
-}  // namespace
+namespace {}  // namespace
 
 TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
     : nh_(nh),
@@ -229,15 +207,7 @@ void TrackerNode::process(const PendingFrame& frame) {
     }
   }
   const auto& bones = registrar_->bones();
-  std::vector<geometry_msgs::TransformStamped> transforms;
-  for (std::size_t b = 0; b < bones.size(); ++b) {
-    geometry_msgs::TransformStamped t;
-    t.header.stamp = frame.header.stamp;  // never now(): tf lines up with the image
-    t.header.frame_id = fixed_frame;
-    t.child_frame_id = bones[b].name;
-    t.transform = toTransformMessage(tracked.poses[b]);
-    transforms.push_back(t);
-  }
+  const auto transforms = boneTransforms(frame.header.stamp, fixed_frame, *registrar_, tracked);
   tf_broadcaster_.sendTransform(transforms);
   for (std::size_t b = 0; b < bones.size(); ++b) {
     geometry_msgs::PoseWithCovarianceStamped pose;
@@ -257,40 +227,18 @@ void TrackerNode::process(const PendingFrame& frame) {
   }
 
   for (std::size_t j = 0; j < registrar_->joints().size(); ++j) {
-    const auto& joint = registrar_->joints()[j];
-    const kinematics::KneeCoordinates c = jointCoordinates(joint, tracked, j);
-    if (!isFinite(c)) continue;
     JointKinematics message;
-    message.header.stamp = frame.header.stamp;
-    message.header.frame_id = bones[joint.parent].name;
-    message.joint = joint.name;
-    message.parent = bones[joint.parent].name;
-    message.child = bones[joint.child].name;
-    message.angle_names = {"flexion", "adduction", "internal_rotation"};
-    message.angles = {c.flexion_rad, c.adduction_rad, c.internal_rotation_rad};
-    message.translation_names = {"anterior", "superior", "lateral"};
-    message.translations = {c.x_m, c.y_m, c.z_m};
-    message.status = jointStatus(joint, tracked);
-    message.compressive_force_n = force_n;
-    message.loaded = loaded && joint.loaded_contact != nullptr;
-    kinematics_publisher_.publish(message);
+    if (kinematicsMessage(frame.header.stamp, *registrar_, j, tracked, force_n, loaded, &message)) {
+      kinematics_publisher_.publish(message);
+    }
   }
 
-  TrackingStatus status;
-  status.header = frame.header;
-  for (std::size_t b = 0; b < bones.size(); ++b) {
-    BoneStatus bone;
-    bone.bone = bones[b].name;
-    bone.status = tracked.status[b];
-    bone.cost = tracked.result.final_cost;
-    bone.iterations = static_cast<std::uint32_t>(tracked.result.solver_iterations);
-    bone.solve_time_s = tracked.solve_seconds;
-    status.bones.push_back(bone);
-  }
+  std::uint32_t dropped = 0;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
-    status.frames_dropped = frames_dropped_;
+    dropped = frames_dropped_;
   }
+  const TrackingStatus status = statusMessage(frame.header, *registrar_, tracked, dropped);
   status_publisher_.publish(status);
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
@@ -426,14 +374,12 @@ bool TrackerNode::onReinitialize(Reinitialize::Request& request, Reinitialize::R
 
 bool TrackerNode::onPlayBag(PlayBag::Request& request, PlayBag::Response& response) {
   response.success = false;
-  if (!request.output_bag_path.empty()) {
-    response.message =
-        "output bags are not implemented yet; give poses_csv_path and/or "
-        "kinematics_csv_path";
-    return true;
-  }
   try {
     const auto start = std::chrono::steady_clock::now();
+    std::unique_ptr<ResultBag> result_bag;
+    if (!request.output_bag_path.empty()) {
+      result_bag = std::make_unique<ResultBag>(request.output_bag_path);
+    }
     BagFrameReader reader(request.bag_path, request.image_topics, config_.fixed_frame);
     registration::Tracker tracker(registrar_, initial_poses_);
     const auto& bones = registrar_->bones();
@@ -456,6 +402,8 @@ bool TrackerNode::onPlayBag(PlayBag::Request& request, PlayBag::Response& respon
             return;
           }
           ++tracked_frames;
+          if (result_bag)
+            result_bag->addFrame(frame.stamp_s, reader.fixedFrame(), *registrar_, tracked);
           for (std::size_t b = 0; b < bones.size(); ++b) {
             poses.push_back(
                 {frame.index, frame.stamp_s, bones[b].name, tracked.poses[b], tracked.status[b]});
@@ -463,8 +411,8 @@ bool TrackerNode::onPlayBag(PlayBag::Request& request, PlayBag::Response& respon
           for (std::size_t j = 0; j < registrar_->joints().size(); ++j) {
             const auto& joint = registrar_->joints()[j];
             kinematics.push_back({frame.index, frame.stamp_s, joint.name,
-                                  jointCoordinates(joint, tracked, j),
-                                  jointStatus(joint, tracked)});
+                                  jointCoordinates(*registrar_, j, tracked),
+                                  jointStatus(*registrar_, j, tracked)});
           }
           if (frames % 50 == 0) ROS_INFO("tracker_node: play_bag frame %u", frames);
         },
@@ -472,6 +420,10 @@ bool TrackerNode::onPlayBag(PlayBag::Request& request, PlayBag::Response& respon
           ++frames;
           ROS_WARN("tracker_node: play_bag skipped frame %d: %s", index, reason.c_str());
         });
+    if (result_bag) {
+      result_bag->copyInput(request.bag_path);
+      result_bag->close();
+    }
     if (!request.poses_csv_path.empty()) io::writePosesCsv(request.poses_csv_path, poses);
     if (!request.kinematics_csv_path.empty()) {
       io::writeKinematicsCsv(request.kinematics_csv_path, kinematics);

@@ -25,6 +25,7 @@
 #include "fluoro_tracker/registration/registrar.h"
 #include "fluoro_tracker/registration/tracker.h"
 #include "fluoro_tracker/ros/bag_frame_reader.h"
+#include "fluoro_tracker/ros/result_bag.h"
 
 namespace po = boost::program_options;
 using namespace fluoro_tracker;
@@ -78,11 +79,6 @@ int main(int argc, char** argv) {
     std::cerr << "track_bag: " << e.what() << "\n" << options << "\n";
     return 2;
   }
-  if (!out_bag.empty()) {
-    std::cerr << "track_bag: error: --out-bag is not implemented yet (bag output comes with the "
-                 "tracking node)\n";
-    return 2;
-  }
 
   try {
     const io::TrialConfig config = io::loadTrialConfig(config_path);
@@ -120,6 +116,8 @@ int main(int argc, char** argv) {
     if (!overlay_dir.empty()) std::filesystem::create_directories(overlay_dir);
 
     ros_bridge::BagFrameReader reader(bag_path, image_topics, config.fixed_frame);
+    std::unique_ptr<ros_bridge::ResultBag> result_bag;
+    if (!out_bag.empty()) result_bag = std::make_unique<ros_bridge::ResultBag>(out_bag);
     // Without --init-csv, frames are tracked from the previous solutions.
     std::unique_ptr<registration::Tracker> tracker;
     if (init_path.empty()) {
@@ -173,12 +171,19 @@ int main(int argc, char** argv) {
             result.diverged.assign(bones.size(), true);
           }
           bool frame_flagged = false;
+          registration::TrackedFrame tracked_frame;
+          tracked_frame.poses = result.poses;
           for (std::size_t b = 0; b < bones.size(); ++b) {
             const std::string status = result.diverged[b] ? "lost" : "ok";
             frame_flagged = frame_flagged || status != "ok";
+            tracked_frame.status.push_back(status);
             records.push_back({frame.index, frame.stamp_s, bones[b].name, result.poses[b], status});
           }
           flagged += frame_flagged ? 1 : 0;
+          if (result_bag) {
+            tracked_frame.result = result;
+            result_bag->addFrame(frame.stamp_s, reader.fixedFrame(), registrar, tracked_frame);
+          }
           const Pose camera_from_fixed = frame.cameras[0].worldFromCamera().inverse();
           for (std::size_t b = 0; b < bones.size(); ++b) {
             if (!result.diverged[b])
@@ -244,6 +249,10 @@ int main(int argc, char** argv) {
     if (interactive) std::cout << "\n";
     io::writePosesCsv(poses_path, records);
     if (!kinematics_path.empty()) io::writeKinematicsCsv(kinematics_path, kinematics);
+    if (result_bag) {
+      result_bag->copyInput(bag_path);
+      result_bag->close();
+    }
     if (!jts_dir.empty()) {
       std::filesystem::create_directories(jts_dir);
       const int frames = static_cast<int>(reader.expectedFrames());

@@ -6,6 +6,8 @@
 #include <geometry_msgs/WrenchStamped.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -179,6 +181,7 @@ TEST(TrackerNode, ServicesAnswerBadRequestsAndWork) {
   test_support::TempDir dir;
   play.request.bag_path = param("bag");
   play.request.poses_csv_path = dir.file("poses.csv");
+  play.request.output_bag_path = dir.file("result.bag");
   ASSERT_TRUE(ros::service::call("/tracker_node/play_bag", play));
   EXPECT_TRUE(play.response.success) << play.response.message;
   EXPECT_EQ(play.response.frames, 90u);
@@ -191,6 +194,12 @@ TEST(TrackerNode, ServicesAnswerBadRequestsAndWork) {
     near += std::hypot(error.x(), error.y()) < 0.0015 ? 1 : 0;
   }
   EXPECT_GE(near, 0.9 * poses.size());
+  rosbag::Bag result(dir.file("result.bag"));
+  int tf_messages = 0;
+  for (const rosbag::MessageInstance& m : rosbag::View(result)) {
+    tf_messages += m.getTopic() == "/tf" ? 1 : 0;
+  }
+  EXPECT_EQ(tf_messages, 90);
 }
 
 int main(int argc, char** argv) {

@@ -2,6 +2,7 @@
 // output against the ground truth, and its answers to bad input.
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "../test_support.h"
@@ -14,6 +15,7 @@
 #include "fluoro_tracker/ros/trial_bag_writer.h"
 
 #include <rosbag/bag.h>
+#include <rosbag/view.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <sys/wait.h>
@@ -76,7 +78,8 @@ TEST(TrackBag, TracksASimulatedSinglePlaneTrial) {
                       trial.dir.file("trial.bag") + " --poses-csv " + trial.dir.file("poses.csv") +
                       " --truth-csv " + trial.dir.file("truth.csv") + " --kinematics-csv " +
                       trial.dir.file("kinematics.csv") + " --contact-csv " +
-                      trial.dir.file("contact.csv") + " --jts-dir " + trial.dir.file("jts"),
+                      trial.dir.file("contact.csv") + " --jts-dir " + trial.dir.file("jts") +
+                      " --out-bag " + trial.dir.file("out.bag"),
                   &output),
       0)
       << output;
@@ -103,6 +106,16 @@ TEST(TrackBag, TracksASimulatedSinglePlaneTrial) {
   int contact_rows = 0;
   while (std::getline(contact, line)) contact_rows += line.empty() ? 0 : 1;
   EXPECT_EQ(contact_rows, 8);
+  // Output bag: the input's messages plus tf, kinematics and status at every image stamp.
+  {
+    rosbag::Bag out(trial.dir.file("out.bag"));
+    std::map<std::string, int> counts;
+    for (const rosbag::MessageInstance& m : rosbag::View(out)) ++counts[m.getTopic()];
+    EXPECT_EQ(counts["/fluoro/image_raw"], 8);
+    EXPECT_EQ(counts["/tf"], 8);
+    EXPECT_EQ(counts["/fluoro_tracker/kinematics"], 8);
+    EXPECT_EQ(counts["/fluoro_tracker/status"], 8);
+  }
   // JointTrack export: the same poses, in JointTrack's camera frame and millimetres.
   const auto jts = io::readJtsFile(trial.dir.file("jts") + "/tibia.jts");
   ASSERT_EQ(jts.size(), 8u);
@@ -203,10 +216,11 @@ TEST(TrackBag, BadInputGivesAClearErrorAndNonZeroExit) {
                         &output),
             0);
   EXPECT_NE(output.find("not valid YAML"), std::string::npos) << output;
-  EXPECT_NE(
-      runTrackBag(base + " --bag " + trial.dir.file("trial.bag") + " --out-bag out.bag", &output),
-      0);
-  EXPECT_NE(output.find("not implemented yet"), std::string::npos) << output;
+  EXPECT_NE(runTrackBag(base + " --bag " + trial.dir.file("trial.bag") +
+                            " --out-bag /nonexistent_dir/out.bag",
+                        &output),
+            0);
+  EXPECT_NE(output.find("/nonexistent_dir/out.bag"), std::string::npos) << output;
   // A kinematics CSV that cannot be written is named.
   EXPECT_NE(runTrackBag(base + " --bag " + trial.dir.file("trial.bag") +
                             " --kinematics-csv /nonexistent_dir/k.csv",

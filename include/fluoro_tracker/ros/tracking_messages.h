@@ -1,0 +1,44 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <geometry_msgs/TransformStamped.h>
+#include <std_msgs/Header.h>
+
+#include "fluoro_tracker/JointKinematics.h"
+#include "fluoro_tracker/TrackingStatus.h"
+#include "fluoro_tracker/registration/tracker.h"
+
+namespace fluoro_tracker {
+namespace ros_bridge {
+
+// The ROS messages of one tracked frame, shared by tracker_node (published) and track_bag
+// --out-bag (recorded), so that a live run and an offline one produce the same messages.
+
+// tf fixed_frame -> <bone> for every bone, stamped with the image stamp.
+std::vector<geometry_msgs::TransformStamped> boneTransforms(
+    const ros::Time& stamp, const std::string& fixed_frame,
+    const registration::Registrar& registrar, const registration::TrackedFrame& tracked);
+
+// A joint's coordinates at a tracked frame: from the registration when it ran, else computed
+// from the poses reported.
+kinematics::KneeCoordinates jointCoordinates(const registration::Registrar& registrar,
+                                             std::size_t joint,
+                                             const registration::TrackedFrame& tracked);
+// "ok" when both of the joint's bones are, else "lost".
+std::string jointStatus(const registration::Registrar& registrar, std::size_t joint,
+                        const registration::TrackedFrame& tracked);
+
+// False (and no message) when a coordinate is not finite.
+bool kinematicsMessage(const ros::Time& stamp, const registration::Registrar& registrar,
+                       std::size_t joint, const registration::TrackedFrame& tracked,
+                       double compressive_force_n, bool loaded, JointKinematics* message);
+
+TrackingStatus statusMessage(const std_msgs::Header& header,
+                             const registration::Registrar& registrar,
+                             const registration::TrackedFrame& tracked,
+                             std::uint32_t frames_dropped);
+
+}  // namespace ros_bridge
+}  // namespace fluoro_tracker

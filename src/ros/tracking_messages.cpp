@@ -1,0 +1,85 @@
+#include "fluoro_tracker/ros/tracking_messages.h"
+
+#include <cmath>
+
+#include "fluoro_tracker/ros/conversions.h"
+
+namespace fluoro_tracker {
+namespace ros_bridge {
+
+std::vector<geometry_msgs::TransformStamped> boneTransforms(
+    const ros::Time& stamp, const std::string& fixed_frame,
+    const registration::Registrar& registrar, const registration::TrackedFrame& tracked) {
+  std::vector<geometry_msgs::TransformStamped> transforms;
+  for (std::size_t b = 0; b < registrar.bones().size(); ++b) {
+    geometry_msgs::TransformStamped t;
+    t.header.stamp = stamp;  // never now(): tf lines up with the image
+    t.header.frame_id = fixed_frame;
+    t.child_frame_id = registrar.bones()[b].name;
+    t.transform = toTransformMessage(tracked.poses[b]);
+    transforms.push_back(t);
+  }
+  return transforms;
+}
+
+kinematics::KneeCoordinates jointCoordinates(const registration::Registrar& registrar,
+                                             std::size_t joint,
+                                             const registration::TrackedFrame& tracked) {
+  const auto& model = registrar.joints()[joint];
+  return joint < tracked.result.joints.size()
+             ? tracked.result.joints[joint].coordinates
+             : model.coordinates(tracked.poses[model.parent], tracked.poses[model.child]);
+}
+
+std::string jointStatus(const registration::Registrar& registrar, std::size_t joint,
+                        const registration::TrackedFrame& tracked) {
+  const auto& model = registrar.joints()[joint];
+  return tracked.status[model.parent] == "ok" && tracked.status[model.child] == "ok" ? "ok"
+                                                                                     : "lost";
+}
+
+bool kinematicsMessage(const ros::Time& stamp, const registration::Registrar& registrar,
+                       std::size_t joint, const registration::TrackedFrame& tracked,
+                       double compressive_force_n, bool loaded, JointKinematics* message) {
+  const auto& model = registrar.joints()[joint];
+  const kinematics::KneeCoordinates c = jointCoordinates(registrar, joint, tracked);
+  for (double v : {c.flexion_rad, c.adduction_rad, c.internal_rotation_rad, c.x_m, c.y_m, c.z_m}) {
+    if (!std::isfinite(v)) return false;
+  }
+  const auto& bones = registrar.bones();
+  message->header.stamp = stamp;
+  message->header.frame_id = bones[model.parent].name;
+  message->joint = model.name;
+  message->parent = bones[model.parent].name;
+  message->child = bones[model.child].name;
+  message->angle_names = {"flexion", "adduction", "internal_rotation"};
+  message->angles = {c.flexion_rad, c.adduction_rad, c.internal_rotation_rad};
+  message->translation_names = {"anterior", "superior", "lateral"};
+  message->translations = {c.x_m, c.y_m, c.z_m};
+  message->status = jointStatus(registrar, joint, tracked);
+  message->compressive_force_n = compressive_force_n;
+  message->loaded = loaded && model.loaded_contact != nullptr;
+  return true;
+}
+
+TrackingStatus statusMessage(const std_msgs::Header& header,
+                             const registration::Registrar& registrar,
+                             const registration::TrackedFrame& tracked,
+                             std::uint32_t frames_dropped) {
+  TrackingStatus status;
+  status.header = header;
+  for (std::size_t b = 0; b < registrar.bones().size(); ++b) {
+    BoneStatus bone;
+    bone.bone = registrar.bones()[b].name;
+    bone.status = tracked.status[b];
+    bone.cost = tracked.result.final_cost;
+    bone.iterations = static_cast<std::uint32_t>(tracked.result.solver_iterations);
+    bone.solve_time_s = tracked.solve_seconds;
+    status.bones.push_back(bone);
+  }
+  status.frames_dropped = frames_dropped;
+  return status;
+}
+
+}  // namespace ros_bridge
+}  // namespace fluoro_tracker
