@@ -264,23 +264,27 @@ void TrackerNode::publishMarkers(const std_msgs::Header& header, const std::stri
                                  const registration::TrackedFrame& tracked) {
   visualization_msgs::MarkerArray markers;
   const auto& bones = registrar_->bones();
-  const std_msgs::ColorRGBA colours[] = {[] {
-                                           std_msgs::ColorRGBA c;
-                                           c.r = 0.2f, c.g = 0.9f, c.b = 0.2f, c.a = 0.8f;
-                                           return c;
-                                         }(),
-                                         [] {
-                                           std_msgs::ColorRGBA c;
-                                           c.r = 1.0f, c.g = 0.6f, c.b = 0.1f, c.a = 0.8f;
-                                           return c;
-                                         }()};
-  for (std::size_t b = 0; b < bones.size(); ++b) {
+  auto marker = [&](const std::string& ns, std::size_t id, int type) {
     visualization_msgs::Marker m;
     m.header.stamp = header.stamp;
     m.header.frame_id = fixed_frame;
-    m.ns = "bones";
-    m.id = static_cast<int>(b);
-    m.type = visualization_msgs::Marker::MESH_RESOURCE;
+    m.ns = ns;
+    m.id = static_cast<int>(id);
+    m.type = type;
+    return m;
+  };
+  auto colour = [](float r, float g, float b, float a) {
+    std_msgs::ColorRGBA c;
+    c.r = r;
+    c.g = g;
+    c.b = b;
+    c.a = a;
+    return c;
+  };
+  const std_msgs::ColorRGBA colours[] = {colour(0.2f, 0.9f, 0.2f, 0.8f),
+                                         colour(1.0f, 0.6f, 0.1f, 0.8f)};
+  for (std::size_t b = 0; b < bones.size(); ++b) {
+    visualization_msgs::Marker m = marker("bones", b, visualization_msgs::Marker::MESH_RESOURCE);
     m.mesh_resource = "file://" + config_.bones[b].mesh;
     const double scale = geometry::metresPerUnit(config_.bones[b].mesh_units);
     m.scale.x = m.scale.y = m.scale.z = scale;
@@ -290,16 +294,11 @@ void TrackerNode::publishMarkers(const std_msgs::Header& header, const std::stri
   }
   for (std::size_t j = 0; j < tracked.result.joints.size(); ++j) {
     const auto& joint = tracked.result.joints[j];
-    visualization_msgs::Marker m;
-    m.header.stamp = header.stamp;
-    m.header.frame_id = fixed_frame;
-    m.ns = "contact_points";
-    m.id = static_cast<int>(j);
-    m.type = visualization_msgs::Marker::SPHERE_LIST;
+    visualization_msgs::Marker m =
+        marker("contact_points", j, visualization_msgs::Marker::SPHERE_LIST);
     m.pose.orientation.w = 1.0;
     m.scale.x = m.scale.y = m.scale.z = 0.001;
-    m.color.r = 1.0f;
-    m.color.a = 1.0f;
+    m.color = colour(1.0f, 0.0f, 0.0f, 1.0f);
     for (const auto& point : joint.contact.points) {
       geometry_msgs::Point p;
       p.x = point.position.x();
