@@ -1,5 +1,6 @@
 // Checks a running tracker_node (started by tracker_node.test with a simulated bag playing).
 #include <cmath>
+#include <iostream>
 #include <mutex>
 
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
@@ -75,17 +76,31 @@ TEST(TrackerNode, PublishesTfNearTheTruthAndFiniteKinematics) {
       wrench_pub.publish(w);
     });
   }
+  // Played faster than the node can track (fast_playback), frames queue up: the node must drop
+  // them, count them, and still publish nothing non-finite.
+  bool fast_playback = false;
+  ros::NodeHandle("~").getParam("fast_playback", fast_playback);
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(60.0);
+  std::size_t seen = 0;
+  ros::WallTime last_change = ros::WallTime::now();
   while (ros::WallTime::now() < deadline) {
     {
       std::lock_guard<std::mutex> lock(mutex);
       if (statuses.size() >= 80) break;
+      if (statuses.size() != seen) {
+        seen = statuses.size();
+        last_change = ros::WallTime::now();
+      }
+    }
+    // Fast playback ends with fewer statuses: stop once they have stopped coming.
+    if (fast_playback && seen > 0 && ros::WallTime::now() - last_change > ros::WallDuration(3.0)) {
+      break;
     }
     ros::WallDuration(0.1).sleep();
   }
   ros::WallDuration(0.5).sleep();  // let the last transforms arrive
   std::lock_guard<std::mutex> lock(mutex);
-  ASSERT_GE(statuses.size(), 60u) << "the node published too few statuses";
+  ASSERT_GE(statuses.size(), fast_playback ? 1u : 60u) << "the node published too few statuses";
   int compared = 0;
   int close = 0;
   int bone_frames = 0;
@@ -118,9 +133,12 @@ TEST(TrackerNode, PublishesTfNearTheTruthAndFiniteKinematics) {
       }
     }
   }
-  EXPECT_GE(compared, 120);
-  EXPECT_GE(close, 0.9 * compared) << close << " of " << compared << " bone poses near the truth";
-  EXPECT_GE(ok, 0.95 * bone_frames) << ok << " of " << bone_frames << " bone-frames ok";
+  if (!fast_playback) {
+    // (With most frames dropped, each tracked step spans many frames' motion: not asserted.)
+    EXPECT_GE(compared, 120);
+    EXPECT_GE(close, 0.9 * compared) << close << " of " << compared << " bone poses near the truth";
+    EXPECT_GE(ok, 0.95 * bone_frames) << ok << " of " << bone_frames << " bone-frames ok";
+  }
   ASSERT_FALSE(kinematics.empty());
   int loaded = 0;
   for (const auto& k : kinematics) {
@@ -148,9 +166,20 @@ TEST(TrackerNode, PublishesTfNearTheTruthAndFiniteKinematics) {
       for (int k = 0; k < 6; ++k) EXPECT_GT(p.pose.covariance[7 * k], 0.0);
     }
   }
-  EXPECT_GE(with_covariance, 0.9 * femur_poses.size());
+  // (Lost bones carry no covariance; fast playback loses some.)
+  if (!fast_playback) {
+    EXPECT_GE(with_covariance, 0.9 * femur_poses.size());
+  }
   // Every frame is either tracked or counted as dropped.
-  EXPECT_LE(statuses.size() + statuses.back().frames_dropped, 90u);
+  const std::size_t dropped = statuses.back().frames_dropped;
+  std::cout << "tracker_node_check: " << statuses.size() << " frames tracked, " << dropped
+            << " dropped\n";
+  EXPECT_LE(statuses.size() + dropped, 90u);
+  if (fast_playback) {
+    EXPECT_GT(dropped, 0u) << "played fast, the node should have had to drop frames";
+    EXPECT_GE(statuses.size() + dropped, 80u)
+        << statuses.size() << " tracked, " << dropped << " dropped of 90";
+  }
 }
 
 TEST(TrackerNode, ServicesAnswerBadRequestsAndWork) {
