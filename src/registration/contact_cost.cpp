@@ -7,21 +7,6 @@
 
 namespace fluoro_tracker {
 namespace registration {
-namespace {
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d s;
-  s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return s;
-}
-
-Eigen::Matrix3d rotationOf(const Eigen::Vector3d& w) {
-  const double angle = w.norm();
-  return angle > 0.0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix()
-                     : Eigen::Matrix3d::Identity();
-}
-
-}  // namespace
 
 ContactCost::ContactCost(const constraints::ArticularContact* contact,
                          const geometry::Pose& parent_pose, const Eigen::Vector3d& parent_centre,
@@ -58,8 +43,8 @@ bool ContactCost::Evaluate(double const* const* parameters, double* residuals,
   const Eigen::Vector3d parent_t(parent_increment[3], parent_increment[4], parent_increment[5]);
   const Eigen::Vector3d child_w(child_increment[0], child_increment[1], child_increment[2]);
   const Eigen::Vector3d child_t(child_increment[3], child_increment[4], child_increment[5]);
-  const Eigen::Matrix3d parent_r = rotationOf(parent_w);
-  const Eigen::Matrix3d child_r_t = rotationOf(child_w).transpose();
+  const Eigen::Matrix3d parent_r = rotationFromAxisAngle(parent_w);
+  const Eigen::Matrix3d child_r_t = rotationFromAxisAngle(child_w).transpose();
   const bool want_jacobians = jacobians != nullptr && (jacobians[0] || jacobians[1]);
 
   // A parent sample p moves to p' = Rp (p - cp) + cp + tp; the child's frame moves the same

@@ -5,13 +5,23 @@
 namespace fluoro_tracker {
 namespace registration {
 
+Eigen::Matrix3d rotationFromAxisAngle(const Eigen::Vector3d& w) {
+  const double angle = w.norm();
+  return angle > 0.0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix()
+                     : Eigen::Matrix3d::Identity();
+}
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d s;
+  s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return s;
+}
+
 geometry::Pose applyIncrement(const geometry::Pose& pose, const Eigen::Vector3d& centre,
                               const double* increment) {
   const Eigen::Vector3d w(increment[0], increment[1], increment[2]);
   const Eigen::Vector3d t(increment[3], increment[4], increment[5]);
-  const double angle = w.norm();
-  const Eigen::Matrix3d r = angle > 0.0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix()
-                                        : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d r = rotationFromAxisAngle(w);
   geometry::Pose out = pose;
   out.linear() = r * pose.linear();
   out.translation() = r * (pose.translation() - centre) + centre + t;
@@ -20,8 +30,7 @@ geometry::Pose applyIncrement(const geometry::Pose& pose, const Eigen::Vector3d&
 
 Eigen::Matrix3d so3LeftJacobian(const Eigen::Vector3d& w) {
   const double angle = w.norm();
-  Eigen::Matrix3d k;
-  k << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
+  const Eigen::Matrix3d k = skew(w);
   if (angle < 1e-8) return Eigen::Matrix3d::Identity() + 0.5 * k;
   const double a2 = angle * angle;
   return Eigen::Matrix3d::Identity() + (1.0 - std::cos(angle)) / a2 * k +
@@ -35,9 +44,7 @@ IncrementedPoints::IncrementedPoints(const double* increment, const Eigen::Vecto
       camera_rotation_(camera_from_fixed.linear()),
       camera_translation_(camera_from_fixed.translation()) {
   const Eigen::Vector3d w(increment[0], increment[1], increment[2]);
-  const double angle = w.norm();
-  rotation_ = angle > 0.0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix()
-                          : Eigen::Matrix3d::Identity();
+  rotation_ = rotationFromAxisAngle(w);
   left_jacobian_ = so3LeftJacobian(w);
 }
 
@@ -50,9 +57,7 @@ Eigen::Vector3d IncrementedPoints::toCamera(const Eigen::Vector3d& q_fixed,
 void IncrementedPoints::chain(const Eigen::RowVector3d& d_camera_point,
                               const Eigen::Vector3d& rotated, double* row) const {
   const Eigen::RowVector3d d_fixed = d_camera_point * camera_rotation_;
-  Eigen::Matrix3d skew;
-  skew << 0, -rotated.z(), rotated.y(), rotated.z(), 0, -rotated.x(), -rotated.y(), rotated.x(), 0;
-  const Eigen::RowVector3d d_w = -d_fixed * skew * left_jacobian_;
+  const Eigen::RowVector3d d_w = -d_fixed * skew(rotated) * left_jacobian_;
   for (int k = 0; k < 3; ++k) {
     row[k] = d_w[k];
     row[3 + k] = d_fixed[k];

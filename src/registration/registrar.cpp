@@ -182,10 +182,8 @@ void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& 
     Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c;
     if (!covariance.GetCovarianceBlock(block, block, c.data())) continue;
     const Eigen::Vector3d arm = poses[b].translation() - centres[b];
-    Eigen::Matrix3d skew;
-    skew << 0, -arm.z(), arm.y(), arm.z(), 0, -arm.x(), -arm.y(), arm.x(), 0;
     Eigen::Matrix<double, 6, 6> to_ros = Eigen::Matrix<double, 6, 6>::Zero();
-    to_ros.block<3, 3>(0, 0) = -skew;                        // d origin / d w
+    to_ros.block<3, 3>(0, 0) = -skew(arm);                   // d origin / d w
     to_ros.block<3, 3>(0, 3) = Eigen::Matrix3d::Identity();  // d origin / d t
     to_ros.block<3, 3>(3, 0) = Eigen::Matrix3d::Identity();  // d rotation / d w
     result->covariances[b] = variance * to_ros * c * to_ros.transpose();

@@ -14,6 +14,12 @@ namespace registration {
 geometry::Pose applyIncrement(const geometry::Pose& pose, const Eigen::Vector3d& centre,
                               const double* increment);
 
+// R(w): the rotation of axis-angle vector w (identity for w = 0).
+Eigen::Matrix3d rotationFromAxisAngle(const Eigen::Vector3d& w);
+
+// [v]×: the cross-product matrix, [v]× u = v × u.
+Eigen::Matrix3d skew(const Eigen::Vector3d& v);
+
 // Left Jacobian of SO(3): d/dw [R(w)·v] = −[R(w)·v]× · J(w).
 Eigen::Matrix3d so3LeftJacobian(const Eigen::Vector3d& w);
 
