@@ -111,6 +111,15 @@ void ContactSettings::validate() const {
   grid.validate();
 }
 
+ContactSettings stayInContactSettings(const ContactSettings& base, double weight) {
+  ContactSettings stay = base;
+  stay.measure = ContactMeasure::kSeparation;
+  stay.dead_band_mm = 0.0;
+  stay.exponent = 1.0;
+  stay.weight = weight;
+  return stay;
+}
+
 ArticularContact::ArticularContact(const geometry::Mesh& parent_surface,
                                    const geometry::Mesh& child_surface,
                                    const ContactSettings& settings)

@@ -45,13 +45,9 @@ TrialModels loadTrialModels(const TrialConfig& config) {
       try {
         model.contact = std::make_shared<constraints::ArticularContact>(
             articular[model.parent], articular[model.child], joint.contact);
-        constraints::ContactSettings stay = joint.contact;
-        stay.measure = constraints::ContactMeasure::kSeparation;
-        stay.dead_band_mm = 0.0;
-        stay.exponent = 1.0;
-        stay.weight = joint.contact.loaded_weight;
         model.loaded_contact = std::make_shared<constraints::ArticularContact>(
-            articular[model.parent], articular[model.child], stay);
+            articular[model.parent], articular[model.child],
+            constraints::stayInContactSettings(joint.contact, joint.contact.loaded_weight));
       } catch (const InputError& e) {
         throw InputError("joint '" + joint.name + "': " + e.what());
       }

@@ -284,13 +284,11 @@ std::vector<registration::JointModel> kneeJoints(const geometry::Mesh& femoral_c
   std::vector<registration::JointModel> joints = {
       kneeJoint(femoral_component, insert, settings, ligaments, condition)};
   if (condition.keep_in_contact) {
-    constraints::ContactSettings separation = settings;
-    separation.measure = constraints::ContactMeasure::kSeparation;
-    separation.exponent = 1.0;
-    separation.dead_band_mm = 0.0;
     Condition contact_only = condition;
     contact_only.ligaments = false;
-    joints.push_back(kneeJoint(femoral_component, insert, separation, ligaments, contact_only));
+    joints.push_back(kneeJoint(femoral_component, insert,
+                               constraints::stayInContactSettings(settings, settings.weight),
+                               ligaments, contact_only));
   }
   return joints;
 }

@@ -62,6 +62,10 @@ struct ContactSettings {
   void validate() const;  // throws InputError naming the field
 };
 
+// The stay-in-contact term of a joint with contact settings `base`: the separation measure,
+// no allowed gap, linear in it, with `weight` (grid and region as in `base`).
+ContactSettings stayInContactSettings(const ContactSettings& base, double weight);
+
 // Where the surfaces interpenetrate: a sampled point of the parent's surface and its depth.
 struct ContactPoint {
   Eigen::Vector3d position;  // in the frame the poses were given in
