@@ -43,11 +43,7 @@ void writeKinematicsCsv(const std::string& path, const std::vector<KinematicsRec
 
 std::vector<KinematicsRecord> readKinematicsCsv(const std::string& path) {
   const auto lines = detail::readTrimmedLines(path, "kinematics CSV");
-  const std::string expected = kKinematicsCsvHeader;
-  if (lines[0].rfind(expected, 0) != 0) {
-    throw InputError("kinematics CSV '" + path + "': header must start with '" + expected +
-                     "', found '" + lines[0] + "'");
-  }
+  detail::requireHeader(lines, kKinematicsCsvHeader, "kinematics CSV", path);
   std::vector<KinematicsRecord> records;
   for (std::size_t i = 1; i < lines.size(); ++i) {
     if (lines[i].empty()) continue;
@@ -61,11 +57,7 @@ std::vector<KinematicsRecord> readKinematicsCsv(const std::string& path) {
                                   context + " column " + std::to_string(column + 1))[0];
     };
     KinematicsRecord r;
-    const double frame = number(0);
-    if (frame < 0 || frame != std::floor(frame)) {
-      throw InputError(context + ": frame must be a whole number >= 0");
-    }
-    r.frame = static_cast<int>(frame);
+    r.frame = detail::parseFrameIndex(f[0], context);
     r.stamp = number(1);
     r.joint = f[2];
     r.coordinates = {number(3) / kDegPerRad, number(4) / kDegPerRad, number(5) / kDegPerRad,

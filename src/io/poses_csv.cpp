@@ -15,11 +15,7 @@ const char kPosesCsvHeader[] = "frame,stamp,bone,x_m,y_m,z_m,qx,qy,qz,qw,status"
 
 std::vector<PoseRecord> readPosesCsv(const std::string& path) {
   const auto lines = detail::readTrimmedLines(path, "poses CSV");
-  const std::string expected = kPosesCsvHeader;
-  if (lines[0].rfind(expected, 0) != 0) {
-    throw InputError("poses CSV '" + path + "': header must start with '" + expected +
-                     "', found '" + lines[0] + "'");
-  }
+  detail::requireHeader(lines, kPosesCsvHeader, "poses CSV", path);
   std::vector<PoseRecord> records;
   for (std::size_t i = 1; i < lines.size(); ++i) {
     if (lines[i].empty()) continue;
@@ -33,11 +29,7 @@ std::vector<PoseRecord> readPosesCsv(const std::string& path) {
       return detail::parseNumbers(f[column], 1,
                                   context + " column " + std::to_string(column + 1))[0];
     };
-    const double frame = number(0);
-    if (frame < 0 || frame != std::floor(frame)) {
-      throw InputError(context + ": frame must be a whole number >= 0");
-    }
-    r.frame = static_cast<int>(frame);
+    r.frame = detail::parseFrameIndex(f[0], context);
     r.stamp = number(1);
     r.bone = f[2];
     if (r.bone.empty()) throw InputError(context + ": empty bone name");

@@ -69,6 +69,22 @@ bool isTrackingStatus(const std::string& status) {
   return status == "ok" || status == "suspect" || status == "lost";
 }
 
+void requireHeader(const std::vector<std::string>& lines, const std::string& expected,
+                   const std::string& what, const std::string& path) {
+  if (lines[0].rfind(expected, 0) != 0) {
+    throw InputError(what + " '" + path + "': header must start with '" + expected + "', found '" +
+                     lines[0] + "'");
+  }
+}
+
+int parseFrameIndex(const std::string& field, const std::string& context) {
+  const double frame = parseNumbers(field, 1, context + " column 1")[0];
+  if (frame < 0 || frame != std::floor(frame)) {
+    throw InputError(context + ": frame must be a whole number >= 0");
+  }
+  return static_cast<int>(frame);
+}
+
 }  // namespace detail
 }  // namespace io
 }  // namespace fluoro_tracker

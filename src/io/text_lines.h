@@ -22,6 +22,12 @@ std::string trim(const std::string& text);
 std::vector<std::string> splitCsv(const std::string& line);
 // A tracking status as the CSVs write it: ok, suspect or lost.
 bool isTrackingStatus(const std::string& status);
+// Throws InputError "<what> '<path>': header must start with ..." unless lines[0] starts with
+// `expected`.
+void requireHeader(const std::vector<std::string>& lines, const std::string& expected,
+                   const std::string& what, const std::string& path);
+// A CSV frame index: a whole number >= 0. Throws InputError naming `context` otherwise.
+int parseFrameIndex(const std::string& field, const std::string& context);
 
 }  // namespace detail
 }  // namespace io
