@@ -43,6 +43,16 @@ Pose offset(const Pose& p, const Eigen::Vector3d& shift_m, const Eigen::Vector3d
   return out;
 }
 
+// The knee between the scene's femur (bone 0) and tibia (bone 1), with the default ligament
+// springs and no contact.
+registration::JointModel kneeJoint() {
+  registration::JointModel knee;
+  knee.name = "knee";
+  knee.parent = 0;
+  knee.child = 1;
+  return knee;
+}
+
 }  // namespace
 
 TEST(Registrar, RecoversKnownPosesOnASimulatedFrame) {
@@ -80,10 +90,7 @@ TEST(Registrar, ContactRelievesPenetrationAndIsReported) {
   const auto& implants = scene.simulator.implants();
   auto contact = std::make_shared<constraints::ArticularContact>(
       implants.femoral_component, implants.tibial_insert, constraints::ContactSettings());
-  registration::JointModel knee;
-  knee.name = "knee";
-  knee.parent = 0;
-  knee.child = 1;
+  registration::JointModel knee = kneeJoint();
   knee.ligaments.enabled = false;
   knee.contact = contact;
   const registration::Registrar with_contact(scene.bones, registration::RegistrationSettings(),
@@ -116,10 +123,7 @@ TEST(Registrar, ContactRelievesPenetrationAndIsReported) {
 // coordinates of its result.
 TEST(Registrar, LigamentsLeaveResultsInsideTheEnvelopeUnchanged) {
   const Scene scene;
-  registration::JointModel knee;
-  knee.name = "knee";
-  knee.parent = 0;
-  knee.child = 1;
+  registration::JointModel knee = kneeJoint();
   const registration::Registrar with_ligaments(scene.bones, registration::RegistrationSettings(),
                                                {knee});
   const registration::Registrar without(scene.bones, registration::RegistrationSettings());
@@ -149,10 +153,7 @@ TEST(Registrar, LigamentsLeaveResultsInsideTheEnvelopeUnchanged) {
 // stiffness against the image's barrier).
 TEST(Registrar, LigamentsPullAJointTowardItsEnvelope) {
   const Scene scene;
-  registration::JointModel knee;
-  knee.name = "knee";
-  knee.parent = 0;
-  knee.child = 1;
+  registration::JointModel knee = kneeJoint();
   const registration::Registrar registrar(scene.bones, registration::RegistrationSettings(),
                                           {knee});
   knee.ligaments.enabled = false;
@@ -221,9 +222,7 @@ TEST(Registrar, CovarianceIsLargestAlongTheBeam) {
 
 TEST(Registrar, JointsMustNameTwoBonesOfTheRegistrar) {
   const Scene scene;
-  registration::JointModel knee;
-  knee.name = "knee";
-  knee.parent = 0;
+  registration::JointModel knee = kneeJoint();
   knee.child = 2;
   EXPECT_THROW_WITH(
       registration::Registrar(scene.bones, registration::RegistrationSettings(), {knee}),
