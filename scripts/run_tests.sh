@@ -23,8 +23,6 @@ counts=$(/usr/bin/python3 - build/test_results <<'PY'
 import pathlib, sys, xml.etree.ElementTree as ET
 passed = failed = skipped = 0
 for f in pathlib.Path(sys.argv[1]).rglob("*.xml"):
-    if f.name.startswith("rosunit-"):
-        continue  # per-node scratch files; rostest merges them into rostest-*.xml
     try:
         root = ET.parse(f).getroot()
     except ET.ParseError:
