@@ -1,5 +1,6 @@
 #include "fluoro_tracker/io/poses_csv.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -52,7 +53,10 @@ std::vector<PoseRecord> readPosesCsv(const std::string& path) {
 void writePosesCsv(const std::string& path, const std::vector<PoseRecord>& records) {
   std::ofstream out(path);
   if (!out) throw InputError("cannot write poses CSV '" + path + "'");
-  out << kPosesCsvHeader << "\n";
+  const bool with_quality = std::any_of(records.begin(), records.end(),
+                                        [](const PoseRecord& r) { return r.quality.has_value(); });
+  out << kPosesCsvHeader
+      << (with_quality ? ",contour_inlier_fraction,contour_rms_px,out_of_plane_sd_mm" : "") << "\n";
   char buffer[512];
   for (const auto& r : records) {
     if (!geometry::isValidPose(r.pose)) {
@@ -61,10 +65,18 @@ void writePosesCsv(const std::string& path, const std::vector<PoseRecord>& recor
     }
     const Eigen::Quaterniond q(r.pose.linear());
     const Eigen::Vector3d& t = r.pose.translation();
-    std::snprintf(buffer, sizeof(buffer), "%d,%.9f,%s,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f,%s\n",
+    std::snprintf(buffer, sizeof(buffer), "%d,%.9f,%s,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f,%.9f,%s",
                   r.frame, r.stamp, r.bone.c_str(), t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w(),
                   r.status.c_str());
     out << buffer;
+    if (with_quality) {
+      const registration::BoneQuality q = r.quality.value_or(registration::BoneQuality());
+      const double sd_mm = q.out_of_plane_sd_m >= 0.0 ? 1e3 * q.out_of_plane_sd_m : -1.0;
+      std::snprintf(buffer, sizeof(buffer), ",%.4f,%.4f,%.4f", q.contour_inlier_fraction,
+                    q.contour_rms_px, sd_mm);
+      out << buffer;
+    }
+    out << "\n";
   }
   if (!out) throw InputError("failed while writing poses CSV '" + path + "'");
 }

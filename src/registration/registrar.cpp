@@ -191,6 +191,47 @@ void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& 
   }
 }
 
+// The image support of a bone at its final pose: its contour samples in every view's map, and
+// how many of them lie within `inlier_px` (full-resolution pixels) of an image edge.
+BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geometry::Pose& pose,
+                         const std::vector<imaging::EdgeMap>& maps, double inlier_px) {
+  BoneQuality quality;
+  int inliers = 0;
+  double squared = 0.0;
+  for (const auto& map : maps) {
+    const geometry::XrayCamera& camera = map.camera();
+    const auto contour = silhouette.contour(camera, camera.worldFromCamera().inverse() * pose, 1.0);
+    for (const auto& c : contour) {
+      ++quality.contour_points;
+      double d = 0.0;
+      double du = 0.0;
+      double dv = 0.0;
+      if (!map.sample(c.pixel.x(), c.pixel.y(), &d, &du, &dv)) continue;
+      d = std::abs(d) / map.scale();
+      if (d <= inlier_px) {
+        ++inliers;
+        squared += d * d;
+      }
+    }
+  }
+  if (quality.contour_points > 0) {
+    quality.contour_inlier_fraction = static_cast<double>(inliers) / quality.contour_points;
+  }
+  if (inliers > 0) quality.contour_rms_px = std::sqrt(squared / inliers);
+  return quality;
+}
+
+// Standard deviations from a bone's pose covariance (ROS order), and the translation's along
+// the beam of `camera` through the bone's origin.
+void addCovarianceQuality(const Eigen::Matrix<double, 6, 6>& covariance, const geometry::Pose& pose,
+                          const geometry::XrayCamera& camera, BoneQuality* quality) {
+  quality->standard_deviations = covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+  const Eigen::Vector3d beam =
+      (pose.translation() - camera.worldFromCamera().translation()).normalized();
+  quality->out_of_plane_sd_m =
+      std::sqrt(std::max(0.0, beam.dot(covariance.block<3, 3>(0, 0) * beam)));
+}
+
 }  // namespace
 
 RegistrationSettings::EdgeOffsetModel edgeOffsetModelFromName(const std::string& name) {
@@ -252,6 +293,7 @@ void RegistrationSettings::validate() const {
     }
   }
   edges.validate();
+  quality.validate();
 }
 
 Registrar::Registrar(std::vector<BoneModel> bones, RegistrationSettings settings,
@@ -302,10 +344,11 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
   }
 
   const std::vector<RegistrationStage> schedule = settings_.schedule();
+  std::vector<imaging::EdgeMap> maps;  // of the current scale; the finest one at the end
   for (std::size_t scale_index = 0; scale_index < settings_.scales.size(); ++scale_index) {
     const double scale = settings_.scales[scale_index];
     const bool finest = scale_index + 1 == settings_.scales.size();
-    std::vector<imaging::EdgeMap> maps;
+    maps.clear();
     maps.reserve(views.size());
     for (std::size_t v = 0; v < views.size(); ++v) {
       maps.emplace_back(views[v].image, views[v].camera, settings_.edges, rois[v], scale);
@@ -462,14 +505,29 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
   }
   for (const auto& joint : joints_) {
     JointResult joint_result;
+    joint_result.parent = joint.parent;
+    joint_result.child = joint.child;
     const geometry::Pose& parent_pose = result.poses[joint.parent];
     const geometry::Pose& child_pose = result.poses[joint.child];
     joint_result.coordinates = joint.coordinates(parent_pose, child_pose);
     if (joint.contact) {
       joint_result.has_contact = true;
       joint_result.contact = joint.contact->figures(parent_pose, child_pose, true);
+      joint_result.quality.penetration_m = joint_result.contact.max_depth_m;
+    }
+    if (joint.ligaments.enabled) {
+      joint_result.quality.envelope_violation =
+          envelopeViolation(joint.ligaments, joint_result.coordinates);
     }
     result.joints.push_back(joint_result);
+  }
+  for (std::size_t b = 0; b < bones_.size(); ++b) {
+    result.quality.push_back(imageQuality(*bones_[b].silhouette, result.poses[b], maps,
+                                          settings_.quality.inlier_distance_px));
+    if (b < result.covariance_valid.size() && result.covariance_valid[b]) {
+      addCovarianceQuality(result.covariances[b], result.poses[b], views.front().camera,
+                           &result.quality.back());
+    }
   }
   return result;
 }

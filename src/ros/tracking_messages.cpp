@@ -34,8 +34,10 @@ kinematics::KneeCoordinates jointCoordinates(const registration::Registrar& regi
 std::string jointStatus(const registration::Registrar& registrar, std::size_t joint,
                         const registration::TrackedFrame& tracked) {
   const auto& model = registrar.joints()[joint];
-  return tracked.status[model.parent] == "ok" && tracked.status[model.child] == "ok" ? "ok"
-                                                                                     : "lost";
+  const std::string& a = tracked.status[model.parent];
+  const std::string& b = tracked.status[model.child];
+  if (a == "lost" || b == "lost") return "lost";
+  return a == "ok" && b == "ok" ? "ok" : "suspect";
 }
 
 bool kinematicsMessage(const ros::Time& stamp, const registration::Registrar& registrar,
@@ -75,6 +77,15 @@ TrackingStatus statusMessage(const std_msgs::Header& header,
     bone.cost = tracked.result.final_cost;
     bone.iterations = static_cast<std::uint32_t>(tracked.result.solver_iterations);
     bone.solve_time_s = tracked.solve_seconds;
+    if (b < tracked.result.quality.size()) {
+      const registration::BoneQuality& q = tracked.result.quality[b];
+      bone.contour_inlier_fraction = q.contour_inlier_fraction;
+      bone.contour_rms_px = q.contour_rms_px;
+      bone.out_of_plane_sd_m = q.out_of_plane_sd_m;
+    } else {
+      bone.out_of_plane_sd_m = -1.0;
+    }
+    bone.searched = tracked.searched;
     status.bones.push_back(bone);
   }
   status.frames_dropped = frames_dropped;

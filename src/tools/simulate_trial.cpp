@@ -107,8 +107,10 @@ int main(int argc, char** argv) {
     for (int i = 0; i < frames; ++i) {
       const sim::SimulatedFrame frame = simulator.render(i, &rng);
       bag.write(frame);
-      truth.push_back({i, frame.stamp_s, sim::TrialSimulator::kFemur, frame.femur, "ok"});
-      truth.push_back({i, frame.stamp_s, sim::TrialSimulator::kTibia, frame.tibia, "ok"});
+      truth.push_back(
+          {i, frame.stamp_s, sim::TrialSimulator::kFemur, frame.femur, "ok", std::nullopt});
+      truth.push_back(
+          {i, frame.stamp_s, sim::TrialSimulator::kTibia, frame.tibia, "ok", std::nullopt});
       if (i == 0 || i == deepest || i == frames - 1) {
         if (preview_frames.empty() || i != 0 || frames == 1)
           preview_frames.push_back(frame.images[0]);

@@ -1,9 +1,11 @@
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "fluoro_tracker/geometry/pose.h"
+#include "fluoro_tracker/registration/frame_quality.h"
 
 namespace fluoro_tracker {
 namespace io {
@@ -18,6 +20,9 @@ struct PoseRecord {
   std::string bone;
   geometry::Pose pose = geometry::Pose::Identity();
   std::string status = "ok";
+  // Written as extra columns after `status` when set: contour_inlier_fraction,
+  // contour_rms_px, out_of_plane_sd_mm (-1 when not computed).
+  std::optional<registration::BoneQuality> quality;
 };
 
 extern const char kPosesCsvHeader[];

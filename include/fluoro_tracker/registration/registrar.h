@@ -14,6 +14,7 @@
 #include "fluoro_tracker/imaging/edge_map.h"
 #include "fluoro_tracker/imaging/silhouette.h"
 #include "fluoro_tracker/kinematics/knee_coordinates.h"
+#include "fluoro_tracker/registration/frame_quality.h"
 
 namespace fluoro_tracker {
 namespace registration {
@@ -78,6 +79,7 @@ struct RegistrationSettings {
   // scaled by the residual variance). Costs a few milliseconds per outer iteration.
   bool compute_covariance = false;
   imaging::EdgeMapSettings edges;
+  QualitySettings quality;
 
   void validate() const;
 };
@@ -112,7 +114,7 @@ struct JointModel {
   std::shared_ptr<const constraints::ArticularContact> contact;  // none: no contact term
   // The stay-in-contact term used in frames where the joint is loaded (solve's `loaded`).
   std::shared_ptr<const constraints::ArticularContact> loaded_contact;
-  constraints::LigamentSettings ligaments;                       // enabled = false: no springs
+  constraints::LigamentSettings ligaments;  // enabled = false: no springs
 
   // The knee coordinates (kinematics::kneeCoordinates) of bones at these mesh-frame poses.
   kinematics::KneeCoordinates coordinates(const geometry::Pose& parent_pose,
@@ -124,7 +126,10 @@ struct JointModel {
 
 // A joint at the result: its coordinates and, if it has a contact term, the contact figures.
 struct JointResult {
+  int parent = -1;  // bone indices
+  int child = -1;
   kinematics::KneeCoordinates coordinates;
+  JointQuality quality;
   bool has_contact = false;
   constraints::ContactFigures contact;
 };
@@ -150,6 +155,8 @@ struct RegistrationResult {
   // could not be computed (covariance_valid false).
   std::vector<Eigen::Matrix<double, 6, 6>> covariances;
   std::vector<bool> covariance_valid;
+  // Per bone, how well the image supports its final pose (see classifyBones).
+  std::vector<BoneQuality> quality;
 };
 
 // Registers all bones of one frame jointly, in any number of views, from starting poses: the

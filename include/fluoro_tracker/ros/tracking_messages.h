@@ -26,7 +26,7 @@ std::vector<geometry_msgs::TransformStamped> boneTransforms(
 kinematics::KneeCoordinates jointCoordinates(const registration::Registrar& registrar,
                                              std::size_t joint,
                                              const registration::TrackedFrame& tracked);
-// "ok" when both of the joint's bones are, else "lost".
+// "lost" when either of the joint's bones is, "ok" when both are, else "suspect".
 std::string jointStatus(const registration::Registrar& registrar, std::size_t joint,
                         const registration::TrackedFrame& tracked);
 

@@ -1,0 +1,66 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "fluoro_tracker/constraints/ligament_envelope.h"
+#include "fluoro_tracker/kinematics/knee_coordinates.h"
+
+namespace fluoro_tracker {
+namespace registration {
+
+struct RegistrationResult;
+
+// How well one bone's registration is supported by its image, at the final pose.
+struct BoneQuality {
+  int contour_points = 0;                // projected contour samples in all views (full resolution)
+  double contour_inlier_fraction = 0.0;  // of those, the share within inlier_distance_px of an edge
+  double contour_rms_px = 0.0;  // RMS edge distance of the inliers (full-resolution pixels)
+  // Standard deviations from the solver's covariance (when computed): x, y, z (m) and rotations
+  // about the fixed X, Y, Z (rad); and the translation's along the first view's beam (m), the
+  // direction single-plane registration pins down worst. Negative when not computed.
+  Eigen::Matrix<double, 6, 1> standard_deviations = Eigen::Matrix<double, 6, 1>::Constant(-1.0);
+  double out_of_plane_sd_m = -1.0;
+};
+
+// How plausible one joint is at the final poses.
+struct JointQuality {
+  double penetration_m = 0.0;  // deepest penetration of the articular surfaces (0 without contact)
+  // Largest distance of a joint coordinate outside its ligament bounds, in degrees or
+  // millimetres (0 inside, or without ligament bounds).
+  double envelope_violation = 0.0;
+};
+
+// Thresholds that turn the quality figures into a bone's status (the `registration: quality:`
+// section of the trial YAML). A bone is `lost` when its registration diverged, came back
+// non-finite, or fewer than lost_inlier_fraction of its contour samples lie on image edges; it
+// is `suspect` when fewer than suspect_inlier_fraction do, when their RMS exceeds
+// suspect_contour_rms_px, when a joint it belongs to penetrates deeper than
+// suspect_penetration_mm or leaves its ligament envelope by more than
+// suspect_envelope_violation (deg or mm), or when its out-of-plane standard deviation exceeds
+// suspect_out_of_plane_sd_mm (0 turns that test off; it needs compute_covariance).
+struct QualitySettings {
+  double inlier_distance_px = 1.5;
+  double lost_inlier_fraction = 0.3;
+  double suspect_inlier_fraction = 0.6;
+  double suspect_contour_rms_px = 1.0;
+  double suspect_penetration_mm = 2.0;
+  double suspect_envelope_violation = 5.0;
+  double suspect_out_of_plane_sd_mm = 0.0;
+
+  void validate() const;  // throws InputError naming the field
+};
+
+// Largest distance of a joint coordinate outside its ligament bounds (degrees or millimetres);
+// 0 inside.
+double envelopeViolation(const constraints::LigamentSettings& ligaments,
+                         const kinematics::KneeCoordinates& coordinates);
+
+// Per bone "ok", "suspect" or "lost" from a registration's quality figures (see QualitySettings).
+std::vector<std::string> classifyBones(const RegistrationResult& result,
+                                       const QualitySettings& settings);
+
+}  // namespace registration
+}  // namespace fluoro_tracker

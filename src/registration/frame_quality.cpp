@@ -1,0 +1,83 @@
+#include "fluoro_tracker/registration/frame_quality.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "fluoro_tracker/geometry/pose.h"
+#include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/registration/registrar.h"
+
+namespace fluoro_tracker {
+namespace registration {
+
+void QualitySettings::validate() const {
+  const auto fraction = [](double value, const char* name) {
+    if (!(value >= 0.0 && value <= 1.0)) {
+      throw InputError(std::string("registration quality: ") + name + " must be in [0, 1]");
+    }
+  };
+  const auto non_negative = [](double value, const char* name) {
+    if (!(value >= 0.0)) {
+      throw InputError(std::string("registration quality: ") + name + " must be >= 0");
+    }
+  };
+  if (!(inlier_distance_px > 0.0)) {
+    throw InputError("registration quality: inlier_distance_px must be > 0");
+  }
+  fraction(lost_inlier_fraction, "lost_inlier_fraction");
+  fraction(suspect_inlier_fraction, "suspect_inlier_fraction");
+  non_negative(suspect_contour_rms_px, "suspect_contour_rms_px");
+  non_negative(suspect_penetration_mm, "suspect_penetration_mm");
+  non_negative(suspect_envelope_violation, "suspect_envelope_violation");
+  non_negative(suspect_out_of_plane_sd_mm, "suspect_out_of_plane_sd_mm");
+}
+
+double envelopeViolation(const constraints::LigamentSettings& ligaments,
+                         const kinematics::KneeCoordinates& k) {
+  constraints::LigamentSettings unit = ligaments;
+  unit.stiffness_per_deg = 1.0;
+  unit.stiffness_per_mm = 1.0;
+  const double coordinates[6] = {k.flexion_rad, k.adduction_rad, k.internal_rotation_rad,
+                                 k.x_m,         k.y_m,           k.z_m};
+  double residuals[6];
+  constraints::ligamentResiduals(unit, coordinates, residuals);
+  double worst = 0.0;
+  for (double r : residuals) worst = std::max(worst, std::abs(r));
+  return worst;
+}
+
+std::vector<std::string> classifyBones(const RegistrationResult& result,
+                                       const QualitySettings& settings) {
+  const std::size_t bones = result.poses.size();
+  std::vector<std::string> status(bones, "ok");
+  for (std::size_t b = 0; b < bones; ++b) {
+    const bool diverged = b < result.diverged.size() && result.diverged[b];
+    if (diverged || !geometry::isValidPose(result.poses[b])) {
+      status[b] = "lost";
+      continue;
+    }
+    if (b >= result.quality.size()) continue;
+    const BoneQuality& q = result.quality[b];
+    if (q.contour_inlier_fraction < settings.lost_inlier_fraction) {
+      status[b] = "lost";
+    } else if (q.contour_inlier_fraction < settings.suspect_inlier_fraction ||
+               q.contour_rms_px > settings.suspect_contour_rms_px ||
+               (settings.suspect_out_of_plane_sd_mm > 0.0 && q.out_of_plane_sd_m >= 0.0 &&
+                q.out_of_plane_sd_m * 1000.0 > settings.suspect_out_of_plane_sd_mm)) {
+      status[b] = "suspect";
+    }
+  }
+  for (const JointResult& joint : result.joints) {
+    const bool implausible =
+        joint.quality.penetration_m * 1000.0 > settings.suspect_penetration_mm ||
+        joint.quality.envelope_violation > settings.suspect_envelope_violation;
+    if (!implausible) continue;
+    for (int b : {joint.parent, joint.child}) {
+      if (b >= 0 && static_cast<std::size_t>(b) < bones && status[b] == "ok") status[b] = "suspect";
+    }
+  }
+  return status;
+}
+
+}  // namespace registration
+}  // namespace fluoro_tracker

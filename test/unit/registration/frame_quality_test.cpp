@@ -1,0 +1,82 @@
+#include "fluoro_tracker/registration/frame_quality.h"
+
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/registration/registrar.h"
+
+using namespace fluoro_tracker;
+using registration::classifyBones;
+
+namespace {
+
+registration::RegistrationResult twoBones(double inliers0, double inliers1) {
+  registration::RegistrationResult r;
+  r.poses.assign(2, geometry::Pose::Identity());
+  r.diverged.assign(2, false);
+  r.quality.resize(2);
+  r.quality[0].contour_inlier_fraction = inliers0;
+  r.quality[1].contour_inlier_fraction = inliers1;
+  r.quality[0].contour_rms_px = r.quality[1].contour_rms_px = 0.4;
+  return r;
+}
+
+}  // namespace
+
+TEST(FrameQuality, StatusFollowsTheDocumentedThresholds) {
+  const registration::QualitySettings s;
+  EXPECT_EQ(classifyBones(twoBones(0.95, 0.9), s), (std::vector<std::string>{"ok", "ok"}));
+  EXPECT_EQ(classifyBones(twoBones(0.5, 0.1), s), (std::vector<std::string>{"suspect", "lost"}));
+
+  auto rough = twoBones(0.95, 0.95);
+  rough.quality[1].contour_rms_px = s.suspect_contour_rms_px + 0.1;
+  EXPECT_EQ(classifyBones(rough, s), (std::vector<std::string>{"ok", "suspect"}));
+
+  auto diverged = twoBones(0.95, 0.95);
+  diverged.diverged[0] = true;
+  EXPECT_EQ(classifyBones(diverged, s)[0], "lost");
+
+  auto nan = twoBones(0.95, 0.95);
+  nan.poses[1].translation().x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(classifyBones(nan, s)[1], "lost");
+}
+
+TEST(FrameQuality, AnImplausibleJointMakesBothBonesSuspect) {
+  const registration::QualitySettings s;
+  auto r = twoBones(0.95, 0.95);
+  registration::JointResult joint;
+  joint.parent = 0;
+  joint.child = 1;
+  joint.quality.penetration_m = 1e-3 * (s.suspect_penetration_mm + 0.5);
+  r.joints.push_back(joint);
+  EXPECT_EQ(classifyBones(r, s), (std::vector<std::string>{"suspect", "suspect"}));
+  r.joints[0].quality.penetration_m = 0.0;
+  r.joints[0].quality.envelope_violation = s.suspect_envelope_violation + 1.0;
+  EXPECT_EQ(classifyBones(r, s), (std::vector<std::string>{"suspect", "suspect"}));
+  r.joints[0].quality.envelope_violation = 0.5 * s.suspect_envelope_violation;
+  EXPECT_EQ(classifyBones(r, s), (std::vector<std::string>{"ok", "ok"}));
+}
+
+TEST(FrameQuality, OutOfPlaneUncertaintyIsFlaggedOnlyWhenAsked) {
+  registration::QualitySettings s;
+  auto r = twoBones(0.95, 0.95);
+  r.quality[0].out_of_plane_sd_m = 0.004;
+  EXPECT_EQ(classifyBones(r, s)[0], "ok");  // off by default
+  s.suspect_out_of_plane_sd_mm = 2.0;
+  EXPECT_EQ(classifyBones(r, s)[0], "suspect");
+  r.quality[0].out_of_plane_sd_m = -1.0;  // not computed: no verdict from it
+  EXPECT_EQ(classifyBones(r, s)[0], "ok");
+}
+
+TEST(FrameQuality, EnvelopeViolationIsTheLargestDistanceOutsideTheBounds) {
+  constraints::LigamentSettings ligaments;  // knee defaults: adduction +-3 deg, z +-5 mm
+  kinematics::KneeCoordinates k;
+  k.flexion_rad = 0.5;
+  EXPECT_DOUBLE_EQ(registration::envelopeViolation(ligaments, k), 0.0);
+  k.adduction_rad = 7.0 * 3.14159265358979323846 / 180.0;  // 4 deg outside
+  k.z_m = -0.0065;                                         // 1.5 mm outside
+  EXPECT_NEAR(registration::envelopeViolation(ligaments, k), 4.0, 1e-9);
+  EXPECT_THROW(registration::QualitySettings{-1.0}.validate(), InputError);
+}
