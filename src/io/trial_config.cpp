@@ -79,8 +79,7 @@ constraints::ContactSettings readContactSettings(const YAML::Node& joint,
   }
   const YamlSection section(node, context + ".contact");
   section.allowOnly({"enabled", "measure", "dead_band_mm", "exponent", "weight", "loaded_weight",
-                     "region",
-                     "grid_spacing_mm", "grid_margin_mm", "grid_exact_band_mm"});
+                     "region", "grid_spacing_mm", "grid_margin_mm", "grid_exact_band_mm"});
   section.read("enabled", &c.enabled);
   std::string measure = constraints::contactMeasureName(c.measure);
   section.read("measure", &measure);
@@ -160,16 +159,72 @@ constraints::LigamentSettings readLigamentSettings(const YAML::Node& joint,
   return l;
 }
 
+// The `registration: search:` subsection: automatic initialisation and recovery.
+registration::PoseSearchSettings readSearchSettings(const YAML::Node& node,
+                                                    const std::string& context) {
+  registration::PoseSearchSettings s;
+  const YamlSection section(node, context);
+  section.allowOnly({"direction_step_deg", "roll_step_deg", "matches_per_bone", "screening_scale",
+                     "refined_per_bone", "mirror_hypotheses", "min_depth_m", "max_depth_m",
+                     "refine_scales", "refine_robust_scale_px", "envelope_penalty_per_unit",
+                     "penetration_penalty_per_mm"});
+  section.read("direction_step_deg", &s.direction_step_deg);
+  section.read("roll_step_deg", &s.roll_step_deg);
+  section.read("matches_per_bone", &s.matches_per_bone);
+  section.read("screening_scale", &s.screening_scale);
+  section.read("refined_per_bone", &s.refined_per_bone);
+  section.read("mirror_hypotheses", &s.mirror_hypotheses);
+  section.read("min_depth_m", &s.min_depth_m);
+  section.read("max_depth_m", &s.max_depth_m);
+  section.read("refine_scales", &s.refine_scales);
+  section.read("refine_robust_scale_px", &s.refine_robust_scale_px);
+  section.read("envelope_penalty_per_unit", &s.envelope_penalty_per_unit);
+  section.read("penetration_penalty_per_mm", &s.penetration_penalty_per_mm);
+  try {
+    s.validate();
+  } catch (const InputError& e) {
+    throw InputError(context + ": " + e.what());
+  }
+  return s;
+}
+
 // The `registration:` section: solver schedule, robust scales and edge detection.
 registration::RegistrationSettings readRegistrationSettings(const YAML::Node& node,
                                                             const std::string& context) {
   registration::RegistrationSettings r;
   const YamlSection section(node, context);
-  section.allowOnly({"scales", "outer_iterations", "solver_iterations", "contour_spacing_px",
-                     "robust_scale_px", "roi_margin_px", "reverse_term_weight", "reverse_band_px",
-                     "max_translation_from_start_m", "max_rotation_from_start_rad",
-                     "converged_translation_m", "converged_rotation_rad", "edge_offset_model",
-                     "edge_offset_prior_px", "contact_from_outer_iteration", "stages", "edges"});
+  section.allowOnly({"scales",
+                     "outer_iterations",
+                     "solver_iterations",
+                     "contour_spacing_px",
+                     "robust_scale_px",
+                     "roi_margin_px",
+                     "reverse_term_weight",
+                     "reverse_band_px",
+                     "max_translation_from_start_m",
+                     "max_rotation_from_start_rad",
+                     "converged_translation_m",
+                     "converged_rotation_rad",
+                     "edge_offset_model",
+                     "edge_offset_prior_px",
+                     "contact_from_outer_iteration",
+                     "stages",
+                     "edges",
+                     "compute_covariance",
+                     "quality",
+                     "search"});
+  section.read("compute_covariance", &r.compute_covariance);
+  const YamlSection quality = section.child("quality");
+  quality.allowOnly({"inlier_distance_px", "lost_inlier_fraction", "suspect_inlier_fraction",
+                     "suspect_contour_rms_px", "suspect_penetration_mm",
+                     "suspect_envelope_violation", "suspect_out_of_plane_sd_mm"});
+  quality.read("inlier_distance_px", &r.quality.inlier_distance_px);
+  quality.read("lost_inlier_fraction", &r.quality.lost_inlier_fraction);
+  quality.read("suspect_inlier_fraction", &r.quality.suspect_inlier_fraction);
+  quality.read("suspect_contour_rms_px", &r.quality.suspect_contour_rms_px);
+  quality.read("suspect_penetration_mm", &r.quality.suspect_penetration_mm);
+  quality.read("suspect_envelope_violation", &r.quality.suspect_envelope_violation);
+  quality.read("suspect_out_of_plane_sd_mm", &r.quality.suspect_out_of_plane_sd_mm);
   section.read("scales", &r.scales);
   section.read("outer_iterations", &r.outer_iterations);
   section.read("solver_iterations", &r.solver_iterations);
@@ -279,6 +334,8 @@ TrialConfig loadTrialConfig(const std::string& path) {
   if (root["registration"]) {
     config.registration =
         readRegistrationSettings(root["registration"], "trial config '" + path + "' registration");
+    config.search = readSearchSettings(root["registration"]["search"],
+                                       "trial config '" + path + "' registration.search");
   }
 
   if (const YAML::Node joints = root["joints"]) {

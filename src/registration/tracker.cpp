@@ -1,5 +1,6 @@
 #include "fluoro_tracker/registration/tracker.h"
 
+#include <algorithm>
 #include <chrono>
 
 #include "fluoro_tracker/input_error.h"
@@ -7,10 +8,14 @@
 namespace fluoro_tracker {
 namespace registration {
 
-Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometry::Pose> initial)
-    : registrar_(std::move(registrar)), poses_(std::move(initial)) {
+Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometry::Pose> initial,
+                 std::shared_ptr<const PoseSearch> search)
+    : registrar_(std::move(registrar)), search_(std::move(search)), poses_(std::move(initial)) {
   if (!registrar_) throw InputError("tracker: no registrar");
-  if (poses_.size() != registrar_->bones().size()) {
+  if (poses_.empty() && !search_) {
+    throw InputError("tracker: no initial poses and no automatic search to find them");
+  }
+  if (!poses_.empty() && poses_.size() != registrar_->bones().size()) {
     throw InputError("tracker: " + std::to_string(poses_.size()) + " initial pose(s) for " +
                      std::to_string(registrar_->bones().size()) + " bone(s)");
   }
@@ -28,7 +33,11 @@ void Tracker::reinitialize(const std::vector<std::string>& bones,
     throw InputError("reinitialize: " + std::to_string(bones.size()) + " bone name(s) but " +
                      std::to_string(poses.size()) + " pose(s)");
   }
-  std::vector<geometry::Pose> updated = poses_;
+  if (poses_.empty() && bones.size() != registrar_->bones().size()) {
+    throw InputError("reinitialize: the tracker has no poses yet; give every bone's pose");
+  }
+  std::vector<geometry::Pose> updated =
+      poses_.empty() ? std::vector<geometry::Pose>(registrar_->bones().size()) : poses_;
   for (std::size_t k = 0; k < bones.size(); ++k) {
     const auto& all = registrar_->bones();
     std::size_t b = 0;
@@ -42,9 +51,64 @@ void Tracker::reinitialize(const std::vector<std::string>& bones,
   }
   poses_ = updated;
   previous_.clear();
+  recovering_ = false;
+}
+
+void Tracker::requestSearch() {
+  if (!search_) throw InputError("tracker: automatic search is not configured");
+  recovering_ = true;
+}
+
+TrackedFrame Tracker::searchAndReset(const std::vector<ViewImage>& views) {
+  if (!search_) throw InputError("tracker: automatic search is not configured");
+  const auto start = std::chrono::steady_clock::now();
+  PoseSearchResult found = search_->search(views, poses_);
+  TrackedFrame frame;
+  frame.searched = true;
+  frame.result = std::move(found.registration);
+  frame.status = found.status;
+  frame.poses = frame.result.poses;
+  frame.solve_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  accept(&frame);
+  return frame;
+}
+
+void Tracker::accept(TrackedFrame* frame) {
+  const bool first = poses_.empty();
+  bool all_ok = true;
+  for (std::size_t b = 0; b < frame->poses.size(); ++b) {
+    all_ok = all_ok && frame->status[b] == "ok";
+    if (frame->status[b] == "lost" && !first) frame->poses[b] = poses_[b];
+  }
+  const bool any_lost =
+      std::find(frame->status.begin(), frame->status.end(), "lost") != frame->status.end();
+  // Velocity only from two good frames in a row; a lost bone restarts from its last good pose.
+  previous_ = all_ok && !first && !frame->searched ? poses_ : std::vector<geometry::Pose>();
+  if (!first || !any_lost) poses_ = frame->poses;
+  if (first && any_lost) poses_.clear();  // not found yet: search again next frame
+  recovering_ = any_lost && search_ != nullptr;
 }
 
 TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vector<bool>& loaded) {
+  if (poses_.empty()) return searchAndReset(views);
+  if (recovering_) {
+    for (const ViewImage& view : views) {
+      if (view.image.empty()) throw InputError("tracker: empty image");
+    }
+    try {
+      return searchAndReset(views);
+    } catch (const InputError&) {
+      // Nothing found in this frame: still lost, at the last good poses; search the next.
+      TrackedFrame frame;
+      frame.searched = true;
+      frame.poses = poses_;
+      frame.status.assign(poses_.size(), "lost");
+      frame.result.poses = poses_;
+      frame.result.diverged.assign(poses_.size(), true);
+      return frame;
+    }
+  }
   std::vector<geometry::Pose> guess = poses_;
   if (previous_.size() == poses_.size()) {
     // Constant velocity: repeat the last frame-to-frame motion.
@@ -58,17 +122,8 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
   frame.solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   frame.poses = frame.result.poses;
-  frame.status.assign(poses_.size(), "ok");
-  bool all_good = true;
-  for (std::size_t b = 0; b < poses_.size(); ++b) {
-    if (frame.result.diverged[b] || !geometry::isValidPose(frame.poses[b])) {
-      frame.status[b] = "lost";
-      frame.poses[b] = poses_[b];
-      all_good = false;
-    }
-  }
-  previous_ = all_good ? poses_ : std::vector<geometry::Pose>();
-  poses_ = frame.poses;
+  frame.status = classifyBones(frame.result, registrar_->settings().quality);
+  accept(&frame);
   return frame;
 }
 

@@ -1,5 +1,7 @@
 #include "fluoro_tracker/ros/tracker_node.h"
 
+#include <algorithm>
+
 #include <chrono>
 #include <cmath>
 
@@ -39,14 +41,21 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   registration::RegistrationSettings settings = config_.registration;
   private_nh_.param("covariance", settings.compute_covariance, true);
   registrar_ = std::make_shared<registration::Registrar>(models_.bones, settings, models_.joints);
+  const bool all_initial = std::all_of(config_.bones.begin(), config_.bones.end(),
+                                       [](const io::BoneConfig& b) { return b.initial_pose; });
   for (const auto& bone : config_.bones) {
-    if (!bone.initial_pose) {
-      throw InputError("tracker_node: bone '" + bone.name + "' has no initial_pose in '" +
-                       config_path + "' (automatic initialisation is not available yet)");
-    }
-    initial_poses_.push_back(*bone.initial_pose);
+    if (all_initial) initial_poses_.push_back(*bone.initial_pose);
   }
-  tracker_ = std::make_unique<registration::Tracker>(registrar_, initial_poses_);
+  // The automatic search finds bones without an initial pose on the first frame and, with
+  // ~recover, re-finds lost bones; otherwise it is built on the first ~reinitialize request
+  // that asks for it (building its silhouette libraries takes about a second per bone).
+  bool recover = false;
+  private_nh_.param("recover", recover, false);
+  if (!all_initial || recover) {
+    search_ = std::make_shared<registration::PoseSearch>(registrar_, config_.search);
+  }
+  tracker_ = std::make_unique<registration::Tracker>(registrar_, initial_poses_,
+                                                     recover || !all_initial ? search_ : nullptr);
 
   overlay_publisher_ = private_image_transport_.advertise("overlay", 1);
   kinematics_publisher_ = private_nh_.advertise<JointKinematics>("kinematics", 10);
@@ -345,14 +354,22 @@ void TrackerNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) 
 }
 
 bool TrackerNode::onReinitialize(Reinitialize::Request& request, Reinitialize::Response& response) {
-  if (request.automatic) {
-    response.success = false;
-    response.message = "automatic initialisation is not available yet; give poses";
-    return true;
-  }
   try {
     std::lock_guard<std::mutex> lock(tracker_mutex_);
-    if (request.bones.empty() && request.poses.empty()) {
+    if (request.automatic) {
+      if (!search_)
+        search_ = std::make_shared<registration::PoseSearch>(registrar_, config_.search);
+      if (!tracker_->canSearch()) tracker_->setSearch(search_);
+      tracker_->requestSearch();
+      response.success = true;
+      response.message = "every bone will be searched for automatically on the next frame";
+      return true;
+    }
+    if (request.bones.empty() && request.poses.empty() && initial_poses_.empty()) {
+      if (!tracker_->canSearch()) tracker_->setSearch(search_);
+      tracker_->requestSearch();
+      response.message = "the trial has no initial poses: searching on the next frame";
+    } else if (request.bones.empty() && request.poses.empty()) {
       std::vector<std::string> names;
       for (const auto& bone : registrar_->bones()) names.push_back(bone.name);
       tracker_->reinitialize(names, initial_poses_);
@@ -380,7 +397,9 @@ bool TrackerNode::onPlayBag(PlayBag::Request& request, PlayBag::Response& respon
       result_bag = std::make_unique<ResultBag>(request.output_bag_path);
     }
     BagFrameReader reader(request.bag_path, request.image_topics, config_.fixed_frame);
-    registration::Tracker tracker(registrar_, initial_poses_);
+    registration::Tracker tracker(
+        registrar_, initial_poses_,
+        initial_poses_.empty() || tracker_->canSearch() ? search_ : nullptr);
     const auto& bones = registrar_->bones();
     std::vector<io::PoseRecord> poses;
     std::vector<io::KinematicsRecord> kinematics;
@@ -404,8 +423,10 @@ bool TrackerNode::onPlayBag(PlayBag::Request& request, PlayBag::Response& respon
           if (result_bag)
             result_bag->addFrame(frame.stamp_s, reader.fixedFrame(), *registrar_, tracked);
           for (std::size_t b = 0; b < bones.size(); ++b) {
-            poses.push_back(
-                {frame.index, frame.stamp_s, bones[b].name, tracked.poses[b], tracked.status[b]});
+            io::PoseRecord record{frame.index,      frame.stamp_s,     bones[b].name,
+                                  tracked.poses[b], tracked.status[b], std::nullopt};
+            if (b < tracked.result.quality.size()) record.quality = tracked.result.quality[b];
+            poses.push_back(record);
           }
           for (std::size_t j = 0; j < registrar_->joints().size(); ++j) {
             const auto& joint = registrar_->joints()[j];

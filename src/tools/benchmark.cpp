@@ -12,6 +12,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <memory>
@@ -28,6 +29,7 @@
 #include "fluoro_tracker/io/jts_file.h"
 #include "fluoro_tracker/kinematics/knee_coordinates.h"
 #include "fluoro_tracker/registration/pose_error.h"
+#include "fluoro_tracker/registration/pose_search.h"
 #include "fluoro_tracker/registration/registrar.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
 
@@ -106,6 +108,17 @@ struct Tally {
   int failed_frames_scored_below_truth = 0;
   // Failures per bone and criterion: in-plane translation, rotation about X, Y, Z.
   std::vector<std::array<int, 4>> failures;
+  // The quality status (registration::classifyBones) against the truth: frames with any bone
+  // flagged suspect or lost, among failed and among successful frames.
+  int failed_flagged = 0;
+  int good_flagged = 0;
+
+  void addStatus(const std::vector<std::string>& status, bool success) {
+    const bool flagged =
+        std::any_of(status.begin(), status.end(), [](const std::string& s) { return s != "ok"; });
+    if (flagged && success) ++good_flagged;
+    if (flagged && !success) ++failed_flagged;
+  }
 
   void addSimilarity(double at_result, double at_truth, bool success) {
     similarity_result.push_back(at_result);
@@ -211,6 +224,11 @@ struct Tally {
                 << "their truth: " << failed_frames_scored_below_truth << "/" << frames - successes
                 << "\n";
     }
+    std::cout << std::setprecision(1) << "  status flags (suspect or lost): " << failed_flagged
+              << "/" << frames - successes << " failed frames ("
+              << 100.0 * failed_flagged / std::max(1, frames - successes) << " %), " << good_flagged
+              << "/" << successes << " successful frames ("
+              << 100.0 * good_flagged / std::max(1, successes) << " %)\n";
     std::cout << std::setprecision(1) << "  time per frame: median "
               << percentile(milliseconds, 0.5) << " ms, p95 " << percentile(milliseconds, 0.95)
               << " ms; cost evaluations per frame: median " << percentile(evaluations, 0.5) << "\n";
@@ -230,7 +248,8 @@ struct Perturbation {
   double in_plane_mm = 2.0;
   double out_of_plane_mm = 3.0;
   double rotation_deg = 3.0;
-  bool crude = false;  // chapter 4's per-bone crude guesses instead (perturbCrude)
+  bool crude = false;   // chapter 4's per-bone crude guesses instead (perturbCrude)
+  bool search = false;  // no guess at all: automatic initialisation (registration::PoseSearch)
 };
 
 // Which simulated images: "good" (1024x1024, the simulator's defaults) or "poor" (768x768,
@@ -298,7 +317,12 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
                   const registration::RegistrationSettings& settings,
                   const std::vector<Condition>& conditions,
                   const constraints::ContactSettings& contact_settings,
-                  const constraints::LigamentSettings& ligament_settings) {
+                  const constraints::LigamentSettings& ligament_settings,
+                  std::ostream* quality_csv) {
+  if (quality_csv != nullptr) {
+    *quality_csv << "condition,trial,frame,bone,bone_success,frame_success,inlier_fraction,"
+                    "contour_rms_px,penetration_mm,envelope_violation,status\n";
+  }
   std::vector<Tally> tallies(conditions.size());
   for (Tally& t : tallies) {
     t.criterion =
@@ -323,13 +347,19 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
     applyTrialSet(trial_set, &s);
     const sim::TrialSimulator simulator(s);
     const auto& implants = simulator.implants();
-    std::vector<std::unique_ptr<registration::Registrar>> registrars;
+    std::vector<std::shared_ptr<registration::Registrar>> registrars;
     for (const Condition& condition : conditions) {
-      registrars.push_back(std::make_unique<registration::Registrar>(
+      registrars.push_back(std::make_shared<registration::Registrar>(
           boneModels({&implants.femoral_component, &implants.tibial_tray}, {"femur", "tibia"}),
           settings,
           kneeJoints(implants.femoral_component, implants.tibial_insert, contact_settings,
                      ligament_settings, condition)));
+    }
+    std::vector<std::unique_ptr<registration::PoseSearch>> searches;
+    if (perturbation.search) {
+      for (const auto& registrar : registrars) {
+        searches.push_back(std::make_unique<registration::PoseSearch>(registrar));
+      }
     }
     // Measures penetration at every result, with or without contact in the registration.
     const constraints::ArticularContact penetration_probe(implants.femoral_component,
@@ -356,7 +386,24 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
       for (std::size_t c = 0; c < conditions.size(); ++c) {
         Tally& tally = tallies[c];
         const auto t0 = std::chrono::steady_clock::now();
-        const auto result = registrars[c]->solve(view_images, start);
+        registration::RegistrationResult result;
+        if (perturbation.search) {
+          try {
+            result = searches[c]->search(view_images).registration;
+          } catch (const InputError& e) {
+            // Nothing found: a failed frame, which the search itself reported.
+            std::cerr << "benchmark: trial " << trial << " frame " << f << ": " << e.what() << "\n";
+            tally.add(
+                {PoseError{Eigen::Vector3d::Constant(1e3), Eigen::Vector3d::Zero()}},
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                    .count(),
+                0);
+            tally.addStatus({"lost"}, false);
+            continue;
+          }
+        } else {
+          result = registrars[c]->solve(view_images, start);
+        }
         const double ms =
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
                 .count();
@@ -380,12 +427,30 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
         }
         tally.addSimilarity(imaging::projectionSimilarity(map, meshes, result.poses).total(),
                             similarity_truth, success);
+        const std::vector<std::string> status =
+            registration::classifyBones(result, settings.quality);
+        tally.addStatus(status, success);
+        if (quality_csv != nullptr) {
+          for (std::size_t b = 0; b < truth.size(); ++b) {
+            const auto& q = result.quality[b];
+            const auto joint = result.joints.empty() ? registration::JointQuality()
+                                                     : result.joints.front().quality;
+            *quality_csv << c << "," << trial << "," << f << "," << b << ","
+                         << (registration::meetsSuccessCriterion(errors[b], tally.criterion) ? 1
+                                                                                             : 0)
+                         << "," << (success ? 1 : 0) << "," << q.contour_inlier_fraction << ","
+                         << q.contour_rms_px << "," << 1e3 * figures.max_depth_m << ","
+                         << joint.envelope_violation << "," << status[b] << "\n";
+          }
+        }
       }
     }
   }
   for (std::size_t c = 0; c < conditions.size(); ++c) {
     const std::string start =
-        perturbation.crude
+        perturbation.search
+            ? "no initial guess (automatic initialisation), success within 1 mm, 2/3 deg"
+        : perturbation.crude
             ? "crude starts (femur +-3 mm in-plane, +-20 mm out-of-plane, +-5 deg; tibia +-3 mm, "
               "+-50 mm, +-5 deg in-plane, +-10 deg out-of-plane), success within 1.5 mm, 3/5 deg"
             : "start +-2 mm in-plane, +-3 mm out-of-plane, +-3 deg";
@@ -461,6 +526,7 @@ int main(int argc, char** argv) {
   std::string trial_set = "good";
   constraints::LigamentSettings ligaments;
   std::string contact_measure = "quasi_volume";
+  std::string quality_csv_path;
   constraints::ContactSettings contact;
   options.add_options()("help,h", "show this help")(
       "trials", po::value(&trials)->default_value(trials), "simulated trials")(
@@ -499,7 +565,8 @@ int main(int argc, char** argv) {
       "and ligaments without contact, then 4 with every term")(
       "protocol", po::value(&protocol)->default_value(protocol),
       "standard (chapter 3: +-2 mm / +-3 mm / +-3 deg starts) or crude (chapter 4's crude guesses, "
-      "coarse-to-fine scales 0.25 0.5 1 unless --scales is given)")(
+      "coarse-to-fine scales 0.25 0.5 1 unless --scales is given) or search (no guess: "
+      "automatic initialisation)")(
       "trial-set", po::value(&trial_set)->default_value(trial_set),
       "good (1024x1024) or poor (768x768, noisier, a metal rod across the tibia)")(
       "ideal", "simulate without anatomy and noise (isolates the method from image clutter)")(
@@ -515,6 +582,8 @@ int main(int argc, char** argv) {
       "ligament-stiffness",
       po::value(&ligaments.stiffness_per_deg)->default_value(ligaments.stiffness_per_deg),
       "ligament springs: residual per degree (and per mm) outside the knee envelope")(
+      "quality-csv", po::value(&quality_csv_path),
+      "write every registration's quality figures and status per bone to this CSV")(
       "contact-dead-band-mm", po::value(&contact.dead_band_mm)->default_value(contact.dead_band_mm),
       "penetration allowed without cost");
   po::variables_map vm;
@@ -530,12 +599,14 @@ int main(int argc, char** argv) {
     return 0;
   }
   try {
-    if (protocol == "crude") {
+    if (protocol == "search") {
+      perturbation.search = true;
+    } else if (protocol == "crude") {
       perturbation.crude = true;
       settings.scales = {0.25, 0.5, 1.0};
       settings.max_translation_from_start_m = 0.08;  // the tibia may start 50 mm off
     } else if (protocol != "standard") {
-      throw InputError("--protocol must be standard or crude, not '" + protocol + "'");
+      throw InputError("--protocol must be standard, crude or search, not '" + protocol + "'");
     }
     if (!scales.empty()) settings.scales = scales;
     if (vm.count("staged")) {
@@ -572,9 +643,15 @@ int main(int argc, char** argv) {
                          "' (image, contact, contact+separation, ligaments, contact+ligaments)");
       }
     }
+    std::ofstream quality_csv;
+    if (!quality_csv_path.empty()) {
+      quality_csv.open(quality_csv_path);
+      if (!quality_csv) throw InputError("cannot write --quality-csv '" + quality_csv_path + "'");
+    }
     if (!vm.count("skip-simulated")) {
       runSimulated(trials, frames, views, seed, vm.count("ideal") > 0, trial_set, perturbation,
-                   settings, conditions, contact, ligaments);
+                   settings, conditions, contact, ligaments,
+                   quality_csv.is_open() ? &quality_csv : nullptr);
     }
     if (!kneel_dir.empty()) runKneel(kneel_dir, kneel_starts, seed, settings);
     return 0;

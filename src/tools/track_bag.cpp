@@ -22,6 +22,7 @@
 #include "fluoro_tracker/io/trial_config.h"
 #include "fluoro_tracker/io/trial_models.h"
 #include "fluoro_tracker/registration/pose_error.h"
+#include "fluoro_tracker/registration/pose_search.h"
 #include "fluoro_tracker/registration/registrar.h"
 #include "fluoro_tracker/registration/tracker.h"
 #include "fluoro_tracker/ros/bag_frame_reader.h"
@@ -48,6 +49,7 @@ int main(int argc, char** argv) {
       overlay_dir, contact_path, jts_dir;
   std::vector<std::string> image_topics;
   int overlay_every = 10;
+  bool recover = false;
   options.add_options()("help,h", "show this help")("config", po::value(&config_path)->required(),
                                                     "trial YAML")(
       "bag", po::value(&bag_path)->required(), "input bag")(
@@ -66,7 +68,10 @@ int main(int argc, char** argv) {
       "contact-csv", po::value(&contact_path),
       "per joint and frame: collision, penetration depth, area, quasi-volume, gap")(
       "overlay-every", po::value(&overlay_every)->default_value(overlay_every),
-      "overlay every Nth frame");
+      "overlay every Nth frame")(
+      "recover", po::bool_switch(&recover),
+      "after a lost frame, search the next frames automatically (seeded by the last good "
+      "poses) until tracking is back");
   po::variables_map vm;
   try {
     po::store(po::parse_command_line(argc, argv, options), vm);
@@ -100,15 +105,9 @@ int main(int argc, char** argv) {
     std::map<std::pair<int, std::string>, Pose> guesses;
     if (!init_path.empty()) {
       for (const auto& r : io::readPosesCsv(init_path)) guesses[{r.frame, r.bone}] = r.pose;
-    } else {
-      for (const auto& bone : config.bones) {
-        if (!bone.initial_pose) {
-          throw InputError("bone '" + bone.name + "' has no initial_pose in '" + config_path +
-                           "' and no --init-csv was given (automatic initialisation is not "
-                           "available yet)");
-        }
-      }
     }
+    const bool all_initial = std::all_of(config.bones.begin(), config.bones.end(),
+                                         [](const io::BoneConfig& b) { return b.initial_pose; });
     std::map<std::pair<int, std::string>, Pose> truth;
     if (!truth_path.empty()) {
       for (const auto& r : io::readPosesCsv(truth_path)) truth[{r.frame, r.bone}] = r.pose;
@@ -121,9 +120,17 @@ int main(int argc, char** argv) {
     // Without --init-csv, frames are tracked from the previous solutions.
     std::unique_ptr<registration::Tracker> tracker;
     if (init_path.empty()) {
+      // Bones without an initial pose are found by the automatic search on the first frame;
+      // with --recover, lost frames are searched again until tracking is back.
+      std::shared_ptr<registration::PoseSearch> search;
+      if (!all_initial || recover) {
+        search = std::make_shared<registration::PoseSearch>(registrar_ptr, config.search);
+      }
       std::vector<Pose> initial;
-      for (const auto& bone : config.bones) initial.push_back(*bone.initial_pose);
-      tracker = std::make_unique<registration::Tracker>(registrar_ptr, initial);
+      for (const auto& bone : config.bones) {
+        if (all_initial) initial.push_back(*bone.initial_pose);
+      }
+      tracker = std::make_unique<registration::Tracker>(registrar_ptr, initial, search);
     }
     std::vector<io::PoseRecord> records;
     std::vector<std::string> missing_guesses;
@@ -137,7 +144,9 @@ int main(int argc, char** argv) {
 
     reader.read(
         [&](const ros_bridge::BagFrame& frame) {
-          std::vector<Pose> guess = tracker ? tracker->poses() : std::vector<Pose>(bones.size());
+          std::vector<Pose> guess = tracker && tracker->initialized()
+                                        ? tracker->poses()
+                                        : std::vector<Pose>(bones.size(), Pose::Identity());
           for (std::size_t b = 0; !tracker && b < bones.size(); ++b) {
             const auto it = guesses.find({frame.index, bones[b].name});
             if (it == guesses.end()) {
@@ -155,29 +164,39 @@ int main(int argc, char** argv) {
           for (std::size_t v = 0; v < frame.images.size(); ++v)
             views.push_back({frame.images[v], frame.cameras[v]});
           registration::RegistrationResult result;
+          std::vector<std::string> status;
           try {
             if (tracker) {
               const registration::TrackedFrame tracked_frame = tracker->track(views);
               result = tracked_frame.result;
               result.poses = tracked_frame.poses;  // lost bones: their last good pose
+              status = tracked_frame.status;
             } else {
               result = registrar.solve(views, guess);
+              status = registration::classifyBones(result, registrar.settings().quality);
             }
           } catch (const InputError& e) {
             // Keep going: the frame is reported lost at its starting poses.
             std::cerr << "track_bag: frame " << frame.index << ": " << e.what() << "\n";
+            if (tracker && !tracker->initialized()) {
+              ++skipped;  // nothing found yet: no pose to report
+              return;
+            }
             result = registration::RegistrationResult();
             result.poses = guess;
             result.diverged.assign(bones.size(), true);
+            status.assign(bones.size(), "lost");
           }
           bool frame_flagged = false;
           registration::TrackedFrame tracked_frame;
           tracked_frame.poses = result.poses;
+          tracked_frame.status = status;
           for (std::size_t b = 0; b < bones.size(); ++b) {
-            const std::string status = result.diverged[b] ? "lost" : "ok";
-            frame_flagged = frame_flagged || status != "ok";
-            tracked_frame.status.push_back(status);
-            records.push_back({frame.index, frame.stamp_s, bones[b].name, result.poses[b], status});
+            frame_flagged = frame_flagged || status[b] != "ok";
+            io::PoseRecord record{frame.index,     frame.stamp_s, bones[b].name,
+                                  result.poses[b], status[b],     std::nullopt};
+            if (b < result.quality.size()) record.quality = result.quality[b];
+            records.push_back(record);
           }
           flagged += frame_flagged ? 1 : 0;
           if (result_bag) {
@@ -186,7 +205,7 @@ int main(int argc, char** argv) {
           }
           const Pose camera_from_fixed = frame.cameras[0].worldFromCamera().inverse();
           for (std::size_t b = 0; b < bones.size(); ++b) {
-            if (!result.diverged[b])
+            if (status[b] != "lost")
               camera_poses[b][frame.index] = camera_from_fixed * result.poses[b];
           }
           for (std::size_t j = 0; j < registrar.joints().size(); ++j) {
@@ -197,7 +216,7 @@ int main(int argc, char** argv) {
                 j < result.joints.size()
                     ? result.joints[j].coordinates
                     : joint.coordinates(result.poses[joint.parent], result.poses[joint.child]);
-            const bool lost = result.diverged[joint.parent] || result.diverged[joint.child];
+            const bool lost = status[joint.parent] == "lost" || status[joint.child] == "lost";
             kinematics.push_back(
                 {frame.index, frame.stamp_s, joint.name, coordinates, lost ? "lost" : "ok"});
             if (contact_csv.is_open() && j < result.joints.size() && result.joints[j].has_contact) {

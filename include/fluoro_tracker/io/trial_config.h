@@ -9,6 +9,7 @@
 #include "fluoro_tracker/geometry/length_unit.h"
 #include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/kinematics/knee_coordinates.h"
+#include "fluoro_tracker/registration/pose_search.h"
 #include "fluoro_tracker/registration/registrar.h"
 
 namespace fluoro_tracker {
@@ -51,6 +52,7 @@ struct TrialConfig {
   std::vector<BoneConfig> bones;
   std::vector<JointConfig> joints;
   registration::RegistrationSettings registration;  // the optional `registration:` section
+  registration::PoseSearchSettings search;          // its `search:` subsection
 
   const BoneConfig* findBone(const std::string& name) const;
 };

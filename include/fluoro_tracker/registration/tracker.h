@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "fluoro_tracker/geometry/pose.h"
+#include "fluoro_tracker/registration/pose_search.h"
 #include "fluoro_tracker/registration/registrar.h"
 
 namespace fluoro_tracker {
@@ -14,36 +15,62 @@ namespace registration {
 // One tracked frame: each bone's pose and status, and the registration behind them.
 struct TrackedFrame {
   std::vector<geometry::Pose> poses;  // in the fixed frame; never non-finite
-  std::vector<std::string> status;    // per bone: "ok" or "lost"
+  std::vector<std::string> status;    // per bone: "ok", "suspect" or "lost" (classifyBones)
   RegistrationResult result;
   double solve_seconds = 0.0;
+  bool searched = false;  // the poses come from an automatic search (initialisation, recovery)
 };
 
 // State across frames (architecture: registration::Tracker): each frame is registered from a
-// constant-velocity prediction of the last two good frames; a bone whose solve diverges, or
-// that comes back non-finite, keeps its last good pose, is reported lost, and the prediction
-// restarts from its last good pose. ROS-free: used by track_bag and the tracking node.
+// constant-velocity prediction of the last two good frames, and its quality classified
+// (classifyBones). A lost bone keeps its last good pose (the tracker never reports a jump its
+// own quality rejects) and the prediction restarts from it. With a PoseSearch, the tracker
+// also starts without poses (the first frame is searched) and recovers: after a lost frame,
+// each following frame is searched, seeded by the last good poses, until no bone is lost.
+// ROS-free: used by track_bag and the tracking node.
 class Tracker {
  public:
-  // `initial`: per bone, its pose at the first frame (all are needed until automatic
-  // initialisation exists). Throws InputError for a wrong count or a non-finite pose.
-  Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometry::Pose> initial);
+  // `initial`: per bone, its pose at the first frame. Empty: found by `search` on the first
+  // frame (then required). Throws InputError for a wrong count, a non-finite pose, or no poses
+  // and no search.
+  Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometry::Pose> initial,
+          std::shared_ptr<const PoseSearch> search = nullptr);
 
   const Registrar& registrar() const { return *registrar_; }
+  // The last good poses; empty until the first frame when started without poses.
   const std::vector<geometry::Pose>& poses() const { return poses_; }
+  bool initialized() const { return !poses_.empty(); }
+  bool recovering() const { return recovering_; }
+  bool canSearch() const { return search_ != nullptr; }
+
+  void setSearch(std::shared_ptr<const PoseSearch> search) { search_ = std::move(search); }
+  // The next frame is searched (seeded by the last good poses) instead of tracked. Throws
+  // InputError without a search.
+  void requestSearch();
+
+  // Searches the frame for every bone (seeded by the last good poses) and restarts tracking
+  // there. Throws InputError when there is no search, or it finds no pose of some bone (the
+  // state is then unchanged).
+  TrackedFrame searchAndReset(const std::vector<ViewImage>& views);
 
   // Sets some bones' poses (by name) and restarts the prediction. Throws InputError naming an
   // unknown bone or a non-finite pose; nothing changes then.
   void reinitialize(const std::vector<std::string>& bones,
                     const std::vector<geometry::Pose>& poses);
 
-  // Registers one frame (all views). Throws InputError for unusable input (empty image,
-  // mismatched sizes, a bone behind the source); the state is then unchanged.
+  // Registers one frame (all views), searching it instead when not yet initialised or
+  // recovering. Throws InputError for unusable input (empty image, mismatched sizes, a bone
+  // behind the source) or a failed first search; the state is then unchanged.
   // `loaded`: per joint, whether it is known to be loaded in this frame (see Registrar::solve).
   TrackedFrame track(const std::vector<ViewImage>& views, const std::vector<bool>& loaded = {});
 
  private:
+  // Takes a registered frame's poses by their status (lost bones keep their last good pose).
+  void accept(TrackedFrame* frame);
+
   std::shared_ptr<const Registrar> registrar_;
+  std::shared_ptr<const PoseSearch> search_;
+  bool recovering_ = false;               // a bone was lost: search the next frames
   std::vector<geometry::Pose> poses_;     // last good pose per bone
   std::vector<geometry::Pose> previous_;  // the good poses one frame earlier (empty: none)
 };

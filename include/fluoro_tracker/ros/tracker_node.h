@@ -90,6 +90,7 @@ class TrackerNode {
 
   std::mutex tracker_mutex_;  // the tracker is shared by the worker and the services
   std::unique_ptr<registration::Tracker> tracker_;
+  std::shared_ptr<registration::PoseSearch> search_;  // built when needed (see the constructor)
 
   image_transport::ImageTransport image_transport_;
   image_transport::ImageTransport private_image_transport_;  // for ~overlay

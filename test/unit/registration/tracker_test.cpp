@@ -5,6 +5,7 @@
 #include <random>
 
 #include "../test_support.h"
+#include "fluoro_tracker/constraints/articular_contact.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
 
@@ -78,4 +79,72 @@ TEST(Tracker, BadInputLeavesTheStateAlone) {
   EXPECT_TRUE(tracker.poses()[0].isApprox(before[0]));
   EXPECT_TRUE(tracker.poses()[1].isApprox(later.tibia, 1e-9));
   EXPECT_THROW_WITH(registration::Tracker(trial.registrar, {first.femur}), "1 initial pose(s)");
+}
+
+namespace {
+
+// The knee joint (contact of the femoral component on the insert, default ligament bounds)
+// that the automatic search needs to place one bone from the other.
+std::shared_ptr<const registration::Registrar> kneeRegistrar(const Trial& trial) {
+  registration::JointModel knee;
+  knee.name = "knee";
+  knee.parent = 0;
+  knee.child = 1;
+  knee.contact = std::make_shared<constraints::ArticularContact>(
+      trial.simulator.implants().femoral_component, trial.simulator.implants().tibial_insert,
+      constraints::ContactSettings());
+  return std::make_shared<registration::Registrar>(trial.registrar->bones(),
+                                                   trial.registrar->settings(),
+                                                   std::vector<registration::JointModel>{knee});
+}
+
+}  // namespace
+
+TEST(Tracker, StartsWithoutPosesAndRecoversAfterABlankFrame) {
+  const Trial trial;
+  const auto registrar = kneeRegistrar(trial);
+  const auto search = std::make_shared<registration::PoseSearch>(registrar);
+  registration::Tracker tracker(registrar, {}, search);
+  EXPECT_FALSE(tracker.initialized());
+  std::mt19937_64 rng(4);
+  const Pose camera_from_fixed = trial.simulator.views()[0].camera.worldFromCamera().inverse();
+  const auto accurate = [&](const registration::TrackedFrame& tracked,
+                            const sim::SimulatedFrame& frame) {
+    const std::vector<Pose> truth = {frame.femur, frame.tibia};
+    for (int b = 0; b < 2; ++b) {
+      if (!registration::meetsSuccessCriterion(
+              registration::poseError(tracked.poses[b], truth[b], camera_from_fixed)))
+        return false;
+    }
+    return true;
+  };
+  // Frame 0: nearly extended, the components' silhouettes apart; no guess at all.
+  const auto frame0 = trial.simulator.render(0, &rng);
+  const registration::TrackedFrame found = tracker.track(trial.views(frame0));
+  EXPECT_TRUE(found.searched);
+  EXPECT_TRUE(tracker.initialized());
+  EXPECT_TRUE(accurate(found, frame0));
+  EXPECT_EQ(found.status, (std::vector<std::string>{"ok", "ok"}));
+
+  const auto frame1 = trial.simulator.render(1, &rng);
+  EXPECT_TRUE(accurate(tracker.track(trial.views(frame1)), frame1));
+  const std::vector<Pose> good = tracker.poses();
+
+  // A blank frame (the beam off): every bone lost, their last good poses kept, no jump.
+  auto blank = trial.simulator.render(2, &rng);
+  blank.images[0].setTo(cv::Scalar(1000));
+  const registration::TrackedFrame lost = tracker.track(trial.views(blank));
+  EXPECT_EQ(lost.status, (std::vector<std::string>{"lost", "lost"}));
+  EXPECT_TRUE(lost.poses[0].isApprox(good[0]));
+  EXPECT_TRUE(lost.poses[1].isApprox(good[1]));
+  EXPECT_TRUE(tracker.recovering());
+
+  // Back within three frames, by the search seeded with the last good poses.
+  int back_at = -1;
+  for (int f = 3; f < 6 && back_at < 0; ++f) {
+    const auto frame = trial.simulator.render(f, &rng);
+    const registration::TrackedFrame tracked = tracker.track(trial.views(frame));
+    if (!tracker.recovering() && accurate(tracked, frame)) back_at = f;
+  }
+  EXPECT_GE(back_at, 3) << "tracking did not come back within 3 frames of the blank one";
 }

@@ -1,0 +1,81 @@
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "fluoro_tracker/geometry/pose.h"
+#include "fluoro_tracker/imaging/implant_blobs.h"
+#include "fluoro_tracker/imaging/silhouette_library.h"
+#include "fluoro_tracker/registration/registrar.h"
+
+namespace fluoro_tracker {
+namespace registration {
+
+// The `registration: search:` section of the trial YAML.
+struct PoseSearchSettings {
+  double direction_step_deg = 15.0;  // silhouette library: spacing of viewing directions
+  double roll_step_deg = 10.0;       // rolls about the beam tried per region
+  int matches_per_bone = 4;          // best shape matches per bone (over all regions)
+  // Every start (matches, their mirrors, envelope samples) is screened by how much of its
+  // contour lies on the edges of the frame at this scale; the best few are refined.
+  double screening_scale = 0.25;
+  int refined_per_bone = 4;
+  // Distances from the source at which a bone may be: a region whose size would put the bone
+  // outside them is not that bone (it is a marker, a fragment, or another object).
+  double min_depth_m = 0.2;
+  double max_depth_m = 2.0;
+  // Each match is also tried mirrored through the plane across the beam: a nearly symmetric
+  // implant seen nearly edge-on has two poses with almost the same silhouette.
+  bool mirror_hypotheses = true;
+  // Refinement of each hypothesis, one bone at a time: coarse to fine, so that a start a few
+  // degrees and millimetres off converges.
+  std::vector<double> refine_scales = {0.25, 0.5, 1.0};
+  double refine_robust_scale_px = 16.0;  // Cauchy scale of the refinement, full-resolution px
+  // Choosing among the refined hypotheses: each bone's contour inlier fraction, minus these
+  // per unit of a joint's ligament envelope violation (deg or mm) and penetration (mm).
+  double envelope_penalty_per_unit = 0.02;
+  double penetration_penalty_per_mm = 0.05;
+  imaging::ImplantBlobSettings blobs;
+
+  void validate() const;  // throws InputError naming the field
+};
+
+// What a search found and how sure it is.
+struct PoseSearchResult {
+  RegistrationResult registration;  // the final joint registration from the chosen hypotheses
+  std::vector<std::string> status;  // per bone, classifyBones of that registration
+  int regions = 0;                  // candidate implant regions found in the first view
+  int hypotheses = 0;               // poses refined
+  double seconds = 0.0;
+};
+
+// Automatic initialisation: finds every bone's pose in a frame with no guess (the dissertation's
+// open problem). Candidate implant regions are found in the first view (imaging::
+// findImplantBlobs) and matched against each bone's silhouette library (orientation and roll),
+// their area and place giving distance and position; the best matches per bone, with their
+// mirror hypotheses and any seed poses (e.g. the last good poses when tracking was lost), are
+// refined one bone at a time; the combination of hypotheses that best explains the image while
+// keeping each joint inside its ligament envelope and out of penetration is registered jointly
+// with the full registrar. Libraries are built once, at construction (about a second per bone).
+class PoseSearch {
+ public:
+  // Throws InputError for invalid settings.
+  PoseSearch(std::shared_ptr<const Registrar> registrar, PoseSearchSettings settings = {});
+
+  const PoseSearchSettings& settings() const { return settings_; }
+
+  // `seeds`: extra starting poses per bone (fixed frame), tried besides the image's hypotheses;
+  // empty or one per bone. Throws InputError for unusable views or seeds.
+  PoseSearchResult search(const std::vector<ViewImage>& views,
+                          const std::vector<geometry::Pose>& seeds = {}) const;
+
+ private:
+  std::shared_ptr<const Registrar> registrar_;
+  PoseSearchSettings settings_;
+  std::vector<std::unique_ptr<imaging::SilhouetteLibrary>> libraries_;  // per bone
+  std::vector<std::unique_ptr<Registrar>> refiners_;                    // per bone, alone
+};
+
+}  // namespace registration
+}  // namespace fluoro_tracker

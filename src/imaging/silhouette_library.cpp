@@ -1,0 +1,168 @@
+#include "fluoro_tracker/imaging/silhouette_library.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "fluoro_tracker/input_error.h"
+
+namespace fluoro_tracker {
+namespace imaging {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kGridPerUnit = 10.0;  // normalised pixels per sqrt(area)
+constexpr int kTemplatePixels = 96;    // template masks are rendered this wide
+
+// The orthographic silhouette of `mesh` at orientation `rotation`: its mask, pixel size (m)
+// and the metric position of pixel (0, 0).
+ShapeTemplate renderTemplate(const geometry::Mesh& mesh, const Eigen::Matrix3d& rotation) {
+  std::vector<Eigen::Vector2d> xy;
+  xy.reserve(mesh.vertexCount());
+  Eigen::AlignedBox2d box;
+  for (const auto& v : mesh.vertices()) {
+    xy.push_back((rotation * v).head<2>());
+    box.extend(xy.back());
+  }
+  const double pixel = box.sizes().maxCoeff() / (kTemplatePixels - 8);
+  const Eigen::Vector2d origin = box.min() - Eigen::Vector2d::Constant(4.0 * pixel);
+  cv::Mat mask(kTemplatePixels, kTemplatePixels, CV_8U, cv::Scalar(0));
+  constexpr int kShift = 4;
+  const double sub = 1 << kShift;
+  for (const auto& t : mesh.triangles()) {
+    cv::Point corners[3];
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector2d p = (xy[t[k]] - origin) / pixel;
+      corners[k] = cv::Point(static_cast<int>(std::lround(p.x() * sub)),
+                             static_cast<int>(std::lround(p.y() * sub)));
+    }
+    cv::fillConvexPoly(mask, corners, 3, cv::Scalar(255), cv::LINE_8, kShift);
+  }
+  const cv::Moments m = cv::moments(mask, true);
+  ShapeTemplate shape;
+  shape.camera_from_mesh = rotation;
+  if (m.m00 <= 0.0) return shape;
+  const Eigen::Vector2d centroid(m.m10 / m.m00, m.m01 / m.m00);
+  shape.area_m2 = m.m00 * pixel * pixel;
+  shape.centroid_m = origin + centroid * pixel;
+  shape.shape = SilhouetteLibrary::normalizedShape(mask, centroid, m.m00, 0.0);
+  return shape;
+}
+
+double dissimilarity(const cv::Mat& a, const cv::Mat& b) {
+  double difference = 0.0;
+  double sum = 0.0;
+  for (int v = 0; v < a.rows; ++v) {
+    const float* pa = a.ptr<float>(v);
+    const float* pb = b.ptr<float>(v);
+    for (int u = 0; u < a.cols; ++u) {
+      difference += std::abs(pa[u] - pb[u]);
+      sum += pa[u] + pb[u];
+    }
+  }
+  return sum > 0.0 ? difference / sum : 1.0;
+}
+
+Eigen::Matrix3d rollAboutBeam(double roll) {
+  return Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
+}  // namespace
+
+SilhouetteLibrary::SilhouetteLibrary(const geometry::Mesh& mesh, double direction_step_deg) {
+  if (mesh.empty()) throw InputError("silhouette library: empty mesh");
+  if (!(direction_step_deg > 1.0 && direction_step_deg < 90.0)) {
+    throw InputError("silhouette library: direction step must be in (1, 90) degrees");
+  }
+  const double step = direction_step_deg * kPi / 180.0;
+  const int directions = std::max(2, static_cast<int>(std::lround(4.0 * kPi / (step * step))));
+  const double golden = kPi * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < directions; ++i) {
+    const double z = 1.0 - 2.0 * (i + 0.5) / directions;
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const Eigen::Vector3d view(r * std::cos(golden * i), r * std::sin(golden * i), z);
+    // The mesh turned so that `view` (a direction in the mesh frame) points along the beam.
+    const Eigen::Matrix3d rotation =
+        Eigen::Quaterniond::FromTwoVectors(view, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    ShapeTemplate t = renderTemplate(mesh, rotation);
+    if (t.area_m2 > 0.0) templates_.push_back(std::move(t));
+  }
+}
+
+cv::Mat SilhouetteLibrary::normalizedShape(const cv::Mat& mask, const Eigen::Vector2d& centroid,
+                                           double area_px, double roll_rad) {
+  cv::Mat source;
+  mask.convertTo(source, CV_32F, 1.0 / 255.0);
+  const double unit = std::sqrt(area_px);  // mask pixels per normalised unit
+  // Average away detail finer than a normalised pixel before sampling.
+  const double sigma = 0.5 * unit / kGridPerUnit;
+  if (sigma > 0.5) cv::GaussianBlur(source, source, cv::Size(0, 0), sigma);
+  const double c = std::cos(roll_rad) * unit / kGridPerUnit;
+  const double s = std::sin(roll_rad) * unit / kGridPerUnit;
+  const double half = 0.5 * (kShapeSize - 1);
+  // Destination (x, y) samples source centroid + R(roll) * ((x, y) - half) * unit / grid.
+  cv::Matx23d inverse(c, -s, centroid.x() - c * half + s * half, s, c,
+                      centroid.y() - s * half - c * half);
+  cv::Mat shape;
+  cv::warpAffine(source, shape, inverse, cv::Size(kShapeSize, kShapeSize),
+                 cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT, cv::Scalar(0));
+  return shape;
+}
+
+std::vector<ShapeMatch> SilhouetteLibrary::match(const ImplantBlob& blob, int count,
+                                                 double roll_step_deg,
+                                                 double min_separation_deg) const {
+  const cv::Moments m = cv::moments(blob.mask, true);
+  if (m.m00 <= 0.0 || templates_.empty()) return {};
+  const Eigen::Vector2d centroid(m.m10 / m.m00, m.m01 / m.m00);
+  const int rolls = std::max(1, static_cast<int>(std::lround(360.0 / roll_step_deg)));
+  std::vector<ShapeMatch> all;
+  all.reserve(static_cast<std::size_t>(rolls) * templates_.size());
+  for (int r = 0; r < rolls; ++r) {
+    const double roll = 2.0 * kPi * r / rolls;
+    const cv::Mat shape = normalizedShape(blob.mask, centroid, m.m00, roll);
+    for (std::size_t t = 0; t < templates_.size(); ++t) {
+      all.push_back({static_cast<int>(t), roll, dissimilarity(shape, templates_[t].shape)});
+    }
+  }
+  std::sort(all.begin(), all.end(), [](const ShapeMatch& a, const ShapeMatch& b) {
+    return a.dissimilarity < b.dissimilarity;
+  });
+  std::vector<ShapeMatch> best;
+  std::vector<Eigen::Matrix3d> orientations;
+  const double min_separation = min_separation_deg * kPi / 180.0;
+  for (const ShapeMatch& candidate : all) {
+    if (static_cast<int>(best.size()) >= count) break;
+    const Eigen::Matrix3d orientation =
+        rollAboutBeam(candidate.roll_rad) * templates_[candidate.template_index].camera_from_mesh;
+    const bool distinct =
+        std::all_of(orientations.begin(), orientations.end(), [&](const Eigen::Matrix3d& other) {
+          return geometry::rotationAngleBetween(orientation, other) >= min_separation;
+        });
+    if (!distinct) continue;
+    best.push_back(candidate);
+    orientations.push_back(orientation);
+  }
+  return best;
+}
+
+geometry::Pose SilhouetteLibrary::cameraFromMesh(const ShapeMatch& match, const ImplantBlob& blob,
+                                                 const geometry::XrayCamera& camera) const {
+  const ShapeTemplate& t = templates_.at(static_cast<std::size_t>(match.template_index));
+  const double focal = std::sqrt(camera.fx() * camera.fy());
+  const double depth = focal * std::sqrt(t.area_m2 / blob.area_px);
+  const Eigen::Matrix2d roll = rollAboutBeam(match.roll_rad).topLeftCorner<2, 2>();
+  const Eigen::Vector2d origin_px = blob.centroid - (focal / depth) * (roll * t.centroid_m);
+  const Eigen::Vector3d ray = camera.pixelRay(origin_px);
+  // Seen off-axis, the bone is viewed along its ray rather than along the optical axis.
+  const Eigen::Matrix3d toward_ray =
+      Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), ray).toRotationMatrix();
+  geometry::Pose pose = geometry::Pose::Identity();
+  pose.linear() = toward_ray * rollAboutBeam(match.roll_rad) * t.camera_from_mesh;
+  pose.translation() = depth * ray;
+  return pose;
+}
+
+}  // namespace imaging
+}  // namespace fluoro_tracker
