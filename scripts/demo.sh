@@ -2,7 +2,8 @@
 # Installs dependencies, builds, and runs the demo: simulates a single-plane total-knee trial
 # (femoral and tibial components moving through a flexion cycle, femur resting on the insert),
 # tracks it with track_bag from the first frame's pose, and prints the accuracy against the
-# ground truth; writes contour overlays.
+# ground truth; writes contour overlays. Then tracks it again with no initial pose at all
+# (automatic initialisation on the first frame, recovery after lost frames).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export PATH="/usr/bin:$PATH"
@@ -21,7 +22,14 @@ echo
   --truth-csv "$out/ground_truth.csv" --overlay-dir "$out/overlay" --contact-csv "$out/contact.csv" \
   --kinematics-csv "$out/kinematics.csv"
 echo
-echo "demo: tracked poses in $out/poses.csv; knee kinematics in $out/kinematics.csv; knee"
+# The same trial with no initial poses: the search finds both components on the first frame.
+grep -v -e "initial_pose:" -e "position_m:" -e "orientation_xyzw:" "$out/trial.yaml" \
+  > "$out/trial_no_initial_pose.yaml"
+echo "demo: the same trial with no initial pose (automatic initialisation):"
+"$tools/track_bag" --config "$out/trial_no_initial_pose.yaml" --bag "$out/trial.bag" \
+  --poses-csv "$out/poses_automatic.csv" --truth-csv "$out/ground_truth.csv" --recover
+echo
+echo "demo: tracked poses in $out/poses.csv (and $out/poses_automatic.csv from no guess); knee kinematics in $out/kinematics.csv; knee"
 echo "      contact per frame in $out/contact.csv;"
 echo "      contour overlays in $out/overlay/ (e.g. overlay_0030.png,"
 echo "      deepest flexion); simulated frames in $out/preview.png."

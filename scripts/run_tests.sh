@@ -26,7 +26,10 @@ for f in pathlib.Path(sys.argv[1]).rglob("*.xml"):
     try:
         root = ET.parse(f).getroot()
     except ET.ParseError:
-        failed += 1  # an unreadable result counts as a failure
+        # rosunit-* files are written by each test node; hztest nodes leave theirs empty and
+        # report through rostest's merged file. Any other unreadable result is a failure.
+        if not f.name.startswith("rosunit-"):
+            failed += 1
         continue
     for case in root.iter("testcase"):
         if case.find("failure") is not None or case.find("error") is not None:

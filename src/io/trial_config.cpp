@@ -217,7 +217,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   const YamlSection quality = section.child("quality");
   quality.allowOnly({"inlier_distance_px", "lost_inlier_fraction", "suspect_inlier_fraction",
                      "suspect_contour_rms_px", "suspect_penetration_mm",
-                     "suspect_envelope_violation", "suspect_out_of_plane_sd_mm"});
+                     "suspect_envelope_violation", "suspect_out_of_plane_sd_mm",
+                     "suspect_rotation_sd_deg"});
   quality.read("inlier_distance_px", &r.quality.inlier_distance_px);
   quality.read("lost_inlier_fraction", &r.quality.lost_inlier_fraction);
   quality.read("suspect_inlier_fraction", &r.quality.suspect_inlier_fraction);
@@ -225,6 +226,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   quality.read("suspect_penetration_mm", &r.quality.suspect_penetration_mm);
   quality.read("suspect_envelope_violation", &r.quality.suspect_envelope_violation);
   quality.read("suspect_out_of_plane_sd_mm", &r.quality.suspect_out_of_plane_sd_mm);
+  quality.read("suspect_rotation_sd_deg", &r.quality.suspect_rotation_sd_deg);
   section.read("scales", &r.scales);
   section.read("outer_iterations", &r.outer_iterations);
   section.read("solver_iterations", &r.solver_iterations);

@@ -30,6 +30,7 @@ void QualitySettings::validate() const {
   non_negative(suspect_penetration_mm, "suspect_penetration_mm");
   non_negative(suspect_envelope_violation, "suspect_envelope_violation");
   non_negative(suspect_out_of_plane_sd_mm, "suspect_out_of_plane_sd_mm");
+  non_negative(suspect_rotation_sd_deg, "suspect_rotation_sd_deg");
 }
 
 double envelopeViolation(const constraints::LigamentSettings& ligaments,
@@ -44,6 +45,11 @@ double envelopeViolation(const constraints::LigamentSettings& ligaments,
   double worst = 0.0;
   for (double r : residuals) worst = std::max(worst, std::abs(r));
   return worst;
+}
+
+std::string combinedStatus(const std::string& parent, const std::string& child) {
+  if (parent == "lost" || child == "lost") return "lost";
+  return parent == "ok" && child == "ok" ? "ok" : "suspect";
 }
 
 std::vector<std::string> classifyBones(const RegistrationResult& result,
@@ -63,7 +69,9 @@ std::vector<std::string> classifyBones(const RegistrationResult& result,
     } else if (q.contour_inlier_fraction < settings.suspect_inlier_fraction ||
                q.contour_rms_px > settings.suspect_contour_rms_px ||
                (settings.suspect_out_of_plane_sd_mm > 0.0 && q.out_of_plane_sd_m >= 0.0 &&
-                q.out_of_plane_sd_m * 1000.0 > settings.suspect_out_of_plane_sd_mm)) {
+                q.out_of_plane_sd_m * 1000.0 > settings.suspect_out_of_plane_sd_mm) ||
+               (settings.suspect_rotation_sd_deg > 0.0 && q.max_rotation_sd_rad >= 0.0 &&
+                q.max_rotation_sd_rad * 57.29577951308232 > settings.suspect_rotation_sd_deg)) {
       status[b] = "suspect";
     }
   }

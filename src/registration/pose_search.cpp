@@ -94,12 +94,30 @@ geometry::Pose jointPartner(const JointModel& joint, const geometry::Pose& known
   return known * joint.child_anatomical * relative.inverse() * joint.parent_anatomical.inverse();
 }
 
-// Starting poses of one bone of a knee from the other's pose: across the envelope's flexion
-// range in 10 degree steps, every other coordinate at the middle of its bounds; an unbounded
-// distraction is set where the articular surfaces touch (when the joint has contact
-// surfaces), since that is where a loaded knee is.
-std::vector<geometry::Pose> envelopeStarts(const JointModel& joint, const geometry::Pose& known,
-                                           bool child_missing) {
+// Knee coordinates moved to the nearest point of the ligament envelope.
+kinematics::KneeCoordinates clampedToEnvelope(const constraints::LigamentSettings& ligaments,
+                                              kinematics::KneeCoordinates k) {
+  constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
+  const auto& b = ligaments.bounds;
+  const auto clamp = [](double value, const constraints::CoordinateBounds& bounds, double unit) {
+    return std::clamp(value, bounds.lower * unit, bounds.upper * unit);
+  };
+  k.flexion_rad = clamp(k.flexion_rad, b[0], kRadPerDeg);
+  k.adduction_rad = clamp(k.adduction_rad, b[1], kRadPerDeg);
+  k.internal_rotation_rad = clamp(k.internal_rotation_rad, b[2], kRadPerDeg);
+  k.x_m = clamp(k.x_m, b[3], 1e-3);
+  k.y_m = clamp(k.y_m, b[4], 1e-3);
+  k.z_m = clamp(k.z_m, b[5], 1e-3);
+  return k;
+}
+
+// The child's pose in the parent's mesh frame across a knee's envelope: flexion in
+// `flexion_step_deg` steps over its bounds, anterior translation in 10 mm steps over its bounds
+// (or at its middle when `one_anterior`), every other coordinate at the middle of its bounds;
+// an unbounded distraction is set where the articular surfaces touch (when the joint has
+// contact surfaces), since that is where a loaded knee is.
+std::vector<geometry::Pose> envelopeSamples(const JointModel& joint, double flexion_step_deg,
+                                            bool one_anterior) {
   const auto& bounds = joint.ligaments.bounds;
   const auto middle = [](const constraints::CoordinateBounds& b) {
     return std::isfinite(b.lower) && std::isfinite(b.upper) ? 0.5 * (b.lower + b.upper) : 0.0;
@@ -108,15 +126,16 @@ std::vector<geometry::Pose> envelopeStarts(const JointModel& joint, const geomet
   const double lowest = std::isfinite(bounds[0].lower) ? bounds[0].lower : -10.0;
   const double highest = std::isfinite(bounds[0].upper) ? bounds[0].upper : 150.0;
   const bool free_distraction = !std::isfinite(bounds[4].lower) || !std::isfinite(bounds[4].upper);
-  // Anterior-posterior translation: its bounds in 10 mm steps (the envelope is wide in it).
   std::vector<double> anterior_mm = {middle(bounds[3])};
-  if (std::isfinite(bounds[3].lower) && std::isfinite(bounds[3].upper)) {
+  if (!one_anterior && std::isfinite(bounds[3].lower) && std::isfinite(bounds[3].upper)) {
     anterior_mm.clear();
-    for (double x = bounds[3].lower; x <= bounds[3].upper + 1e-9; x += 10.0)
+    for (double x = bounds[3].lower; x <= bounds[3].upper + 1e-9; x += 10.0) {
       anterior_mm.push_back(x);
+    }
   }
-  std::vector<geometry::Pose> starts;
-  for (double flexion = lowest; flexion <= highest + 1e-9; flexion += 10.0) {
+  const geometry::Pose parent = geometry::Pose::Identity();
+  std::vector<geometry::Pose> samples;
+  for (double flexion = lowest; flexion <= highest + 1e-9; flexion += flexion_step_deg) {
     for (double x_mm : anterior_mm) {
       kinematics::KneeCoordinates k;
       k.flexion_rad = flexion * kRadPerDeg;
@@ -125,22 +144,20 @@ std::vector<geometry::Pose> envelopeStarts(const JointModel& joint, const geomet
       k.x_m = x_mm * 1e-3;
       k.y_m = middle(bounds[4]) * 1e-3;
       k.z_m = middle(bounds[5]) * 1e-3;
-      geometry::Pose partner = jointPartner(joint, known, k, child_missing);
+      geometry::Pose child = jointPartner(joint, parent, k, true);
       if (free_distraction && joint.contact) {
         // Move the tibia along the femur's long axis by the signed gap until the surfaces touch.
         for (int iteration = 0; iteration < 8; ++iteration) {
-          const geometry::Pose& parent = child_missing ? known : partner;
-          const geometry::Pose& child = child_missing ? partner : known;
           const double gap = joint.contact->figures(parent, child, false).min_distance_m;
           if (!std::isfinite(gap) || std::abs(gap) < 2e-4) break;
           k.y_m += std::clamp(gap, -0.03, 0.03);
-          partner = jointPartner(joint, known, k, child_missing);
+          child = jointPartner(joint, parent, k, true);
         }
       }
-      starts.push_back(partner);
+      samples.push_back(child);
     }
   }
-  return starts;
+  return samples;
 }
 
 }  // namespace
@@ -148,6 +165,12 @@ std::vector<geometry::Pose> envelopeStarts(const JointModel& joint, const geomet
 void PoseSearchSettings::validate() const {
   if (!(direction_step_deg > 1.0 && direction_step_deg < 90.0)) {
     throw InputError("registration search: direction_step_deg must be in (1, 90)");
+  }
+  if (!(joint_direction_step_deg > 1.0 && joint_direction_step_deg < 90.0) ||
+      !(joint_flexion_step_deg > 0.5) || joint_matches < 0) {
+    throw InputError(
+        "registration search: joint_direction_step_deg in (1, 90), joint_flexion_step_deg > 0.5 "
+        "and joint_matches >= 0 are needed");
   }
   if (!(roll_step_deg > 0.5 && roll_step_deg <= 90.0)) {
     throw InputError("registration search: roll_step_deg must be in (0.5, 90]");
@@ -168,6 +191,7 @@ void PoseSearchSettings::validate() const {
   for (double s : refine_scales) {
     if (!(s > 0.0 && s <= 1.0)) throw InputError("registration search: refine_scales in (0, 1]");
   }
+  if (finalists < 1) throw InputError("registration search: finalists must be >= 1");
   if (!(envelope_penalty_per_unit >= 0.0) || !(penetration_penalty_per_mm >= 0.0)) {
     throw InputError("registration search: penalties must be >= 0");
   }
@@ -194,6 +218,22 @@ PoseSearch::PoseSearch(std::shared_ptr<const Registrar> registrar, PoseSearchSet
     libraries_.push_back(std::make_unique<imaging::SilhouetteLibrary>(
         bone.silhouette->mesh(), settings_.direction_step_deg));
     refiners_.push_back(std::make_unique<Registrar>(std::vector<BoneModel>{bone}, refine));
+  }
+  for (const JointModel& joint : registrar_->joints()) {
+    envelope_.push_back(envelopeSamples(joint, 10.0, false));
+    if (!settings_.joint_silhouettes) continue;
+    // The two bones together, across the flexion range: a region where their silhouettes
+    // merge (in flexion they overlap in a lateral view) is matched as a whole.
+    for (const geometry::Pose& child_in_parent :
+         envelopeSamples(joint, settings_.joint_flexion_step_deg, true)) {
+      geometry::Mesh together = registrar_->bones()[joint.parent].silhouette->mesh();
+      together.append(
+          registrar_->bones()[joint.child].silhouette->mesh().transformed(child_in_parent));
+      joint_libraries_.push_back({static_cast<std::size_t>(&joint - registrar_->joints().data()),
+                                  child_in_parent,
+                                  std::make_unique<imaging::SilhouetteLibrary>(
+                                      together, settings_.joint_direction_step_deg)});
+    }
   }
 }
 
@@ -251,16 +291,58 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
       }
     }
   };
-  const auto bestSupport = [&](std::size_t b) {
-    double best = 0.0;
-    for (const Hypothesis& h : hypotheses[b]) best = std::max(best, h.support);
-    return best;
-  };
 
   // 1. Each bone on its own: shape matches of the image's regions, mirrored, at a few
-  // distances (a region thresholded from a blurred rim is smaller than the silhouette).
+  // distances (a region thresholded from a blurred rim is smaller than the silhouette); and
+  // both bones of a joint from matches of the joint's combined silhouettes.
+  std::vector<std::vector<geometry::Pose>> joint_starts(bones);
+  {
+    struct JointStart {
+      double dissimilarity;
+      std::size_t joint;
+      geometry::Pose parent;  // camera frame
+      geometry::Pose child;
+    };
+    std::vector<JointStart> found_joints;
+    for (const JointLibrary& jl : joint_libraries_) {
+      for (const auto& blob : blobs) {
+        for (const auto& match : jl.library->match(blob, 2, settings_.roll_step_deg)) {
+          const geometry::Pose parent = jl.library->cameraFromMesh(match, blob, first.camera);
+          const double depth = parent.translation().z();
+          if (!parent.translation().allFinite() || depth < settings_.min_depth_m ||
+              depth > settings_.max_depth_m) {
+            continue;
+          }
+          found_joints.push_back(
+              {match.dissimilarity, jl.joint, parent, parent * jl.child_in_parent});
+        }
+      }
+    }
+    std::sort(
+        found_joints.begin(), found_joints.end(),
+        [](const JointStart& a, const JointStart& b) { return a.dissimilarity < b.dissimilarity; });
+    for (std::size_t k = 0;
+         k < found_joints.size() && static_cast<int>(k) < settings_.joint_matches; ++k) {
+      const JointStart& js = found_joints[k];
+      const JointModel& joint = registrar_->joints()[js.joint];
+      for (const double depth_factor : {1.0, 0.93}) {
+        geometry::Pose parent = js.parent;
+        geometry::Pose child = js.child;
+        parent.translation() *= depth_factor;
+        child.translation() *= depth_factor;
+        joint_starts[joint.parent].push_back(first.camera.worldFromCamera() * parent);
+        joint_starts[joint.child].push_back(first.camera.worldFromCamera() * child);
+        if (settings_.mirror_hypotheses) {
+          joint_starts[joint.parent].push_back(first.camera.worldFromCamera() *
+                                               mirroredAcrossBeam(parent));
+          joint_starts[joint.child].push_back(first.camera.worldFromCamera() *
+                                              mirroredAcrossBeam(child));
+        }
+      }
+    }
+  }
   for (std::size_t b = 0; b < bones; ++b) {
-    std::vector<geometry::Pose> starts;
+    std::vector<geometry::Pose> starts = joint_starts[b];
     for (const geometry::Pose& camera_pose :
          shapeMatchStarts(*libraries_[b], blobs, first.camera, settings_)) {
       for (const double depth_factor : {1.0, 0.93, 0.86}) {
@@ -276,20 +358,54 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
     refineBest(b, starts);
   }
 
-  // 2. A bone the image alone did not find well (merged with its neighbour's silhouette in
-  // flexion, occluded, or cut by the field's edge) is searched where its joint allows it to be:
-  // across the flexion range of the joint's envelope, from each well-found neighbour.
-  for (const JointModel& joint : registrar_->joints()) {
+  // The rotation about a bone's long axis (mesh Y in the ISB frame) is what a silhouette shows
+  // least (a tibial tray spun about its stem looks much the same): each bone's best
+  // hypotheses are also tried spun about it.
+  for (std::size_t b = 0; b < bones; ++b) {
+    std::vector<Hypothesis> best = hypotheses[b];
+    std::sort(best.begin(), best.end(),
+              [](const Hypothesis& x, const Hypothesis& y) { return x.support > y.support; });
+    best.resize(std::min<std::size_t>(best.size(), 2));
+    std::vector<geometry::Pose> starts;
+    for (const Hypothesis& h : best) {
+      for (const double spin_deg : {-30.0, -15.0, 15.0, 30.0}) {
+        geometry::Pose spun = h.pose;
+        spun.linear() =
+            h.pose.linear() *
+            Eigen::AngleAxisd(spin_deg * 3.14159265358979323846 / 180.0, Eigen::Vector3d::UnitY())
+                .toRotationMatrix();
+        starts.push_back(spun);
+      }
+    }
+    refineBest(b, starts);
+  }
+
+  // 2. Each bone is also searched where its joint allows it to be, from each well-found
+  // neighbour: across the flexion range of the joint's envelope (for a bone the image alone
+  // finds poorly: merged with its neighbour's silhouette in flexion, occluded, cut by the
+  // field's edge), and each of its own hypotheses moved into the envelope.
+  for (std::size_t j = 0; j < registrar_->joints().size(); ++j) {
+    const JointModel& joint = registrar_->joints()[j];
     for (const bool child_missing : {true, false}) {
       const std::size_t missing = child_missing ? joint.child : joint.parent;
       const std::size_t known = child_missing ? joint.parent : joint.child;
       const double threshold = registrar_->settings().quality.suspect_inlier_fraction;
-      if (bestSupport(missing) >= threshold || hypotheses[known].empty()) continue;
+      if (hypotheses[known].empty()) continue;
       std::vector<geometry::Pose> starts;
       for (const Hypothesis& h : hypotheses[known]) {
         if (h.support < threshold) continue;
-        for (const geometry::Pose& p : envelopeStarts(joint, h.pose, child_missing)) {
-          starts.push_back(p);
+        for (const geometry::Pose& child_in_parent : envelope_[j]) {
+          starts.push_back(child_missing ? h.pose * child_in_parent
+                                         : h.pose * child_in_parent.inverse());
+        }
+        // Each hypothesis of the other bone moved into the envelope: a rotation about a nearly
+        // symmetric implant's axis that its silhouette cannot show is taken from the joint.
+        for (const Hypothesis& other : hypotheses[missing]) {
+          const geometry::Pose& parent = child_missing ? h.pose : other.pose;
+          const geometry::Pose& child = child_missing ? other.pose : h.pose;
+          const kinematics::KneeCoordinates k =
+              clampedToEnvelope(joint.ligaments, joint.coordinates(parent, child));
+          starts.push_back(jointPartner(joint, h.pose, k, child_missing));
         }
       }
       refineBest(missing, starts);
@@ -303,11 +419,16 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
     }
   }
 
-  // 3. The combination that best explains the image inside the joints' envelopes: exhaustive
-  // over the (few) hypotheses per bone.
+  // 3. The combinations that best explain the image inside the joints' envelopes (exhaustive
+  // over the few hypotheses per bone); the best few are registered jointly, with the joints'
+  // contact and ligament terms, and the result that best explains the image inside the
+  // envelopes wins: a wrong hypothesis pulled into the envelope loses its image support.
+  const auto jointPenalty = [&](double envelope_violation, double penetration_m) {
+    return settings_.envelope_penalty_per_unit * envelope_violation +
+           settings_.penetration_penalty_per_mm * 1e3 * penetration_m;
+  };
+  std::vector<std::pair<double, std::vector<std::size_t>>> combinations;
   std::vector<std::size_t> choice(bones, 0);
-  std::vector<std::size_t> best_choice = choice;
-  double best_score = -std::numeric_limits<double>::infinity();
   while (true) {
     double score = 0.0;
     std::vector<geometry::Pose> poses(bones);
@@ -318,26 +439,48 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
     for (const JointModel& joint : registrar_->joints()) {
       const geometry::Pose& parent = poses[joint.parent];
       const geometry::Pose& child = poses[joint.child];
-      if (joint.ligaments.enabled) {
-        score -= settings_.envelope_penalty_per_unit *
-                 envelopeViolation(joint.ligaments, joint.coordinates(parent, child));
-      }
-      if (joint.contact) {
-        score -= settings_.penetration_penalty_per_mm * 1e3 *
-                 joint.contact->figures(parent, child, false).max_depth_m;
-      }
+      score -= jointPenalty(
+          joint.ligaments.enabled
+              ? envelopeViolation(joint.ligaments, joint.coordinates(parent, child))
+              : 0.0,
+          joint.contact ? joint.contact->figures(parent, child, false).max_depth_m : 0.0);
     }
-    if (score > best_score) {
-      best_score = score;
-      best_choice = choice;
-    }
+    combinations.emplace_back(score, choice);
     std::size_t b = 0;
     while (b < bones && ++choice[b] == hypotheses[b].size()) choice[b++] = 0;
     if (b == bones) break;
   }
-  std::vector<geometry::Pose> chosen(bones);
-  for (std::size_t b = 0; b < bones; ++b) chosen[b] = hypotheses[b][best_choice[b]].pose;
-  found.registration = registrar_->solve(views, chosen);
+  std::sort(combinations.begin(), combinations.end(),
+            [](const auto& x, const auto& y) { return x.first > y.first; });
+  double best_score = -std::numeric_limits<double>::infinity();
+  const std::size_t finalists =
+      std::min<std::size_t>(combinations.size(), static_cast<std::size_t>(settings_.finalists));
+  for (std::size_t c = 0; c < finalists; ++c) {
+    std::vector<geometry::Pose> poses(bones);
+    for (std::size_t b = 0; b < bones; ++b) {
+      poses[b] = hypotheses[b][combinations[c].second[b]].pose;
+    }
+    RegistrationResult registered;
+    try {
+      registered = registrar_->solve(views, poses);
+    } catch (const InputError&) {
+      continue;
+    }
+    double score = 0.0;
+    for (std::size_t b = 0; b < bones; ++b) {
+      score += registered.diverged[b] ? 0.0 : registered.quality[b].contour_inlier_fraction;
+    }
+    for (const JointResult& joint : registered.joints) {
+      score -= jointPenalty(joint.quality.envelope_violation, joint.quality.penetration_m);
+    }
+    if (score > best_score) {
+      best_score = score;
+      found.registration = std::move(registered);
+    }
+  }
+  if (found.registration.poses.empty()) {
+    throw InputError("pose search: no combination of the bones' hypotheses could be registered");
+  }
   found.status = classifyBones(found.registration, registrar_->settings().quality);
   found.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return found;

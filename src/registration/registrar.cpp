@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 
+#include <Eigen/Eigenvalues>
 #include <ceres/ceres.h>
 #include <opencv2/imgproc.hpp>
 
@@ -230,6 +231,10 @@ void addCovarianceQuality(const Eigen::Matrix<double, 6, 6>& covariance, const g
       (pose.translation() - camera.worldFromCamera().translation()).normalized();
   quality->out_of_plane_sd_m =
       std::sqrt(std::max(0.0, beam.dot(covariance.block<3, 3>(0, 0) * beam)));
+  const Eigen::Matrix3d rotation = covariance.block<3, 3>(3, 3);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(0.5 * (rotation + rotation.transpose()),
+                                                             Eigen::EigenvaluesOnly);
+  quality->max_rotation_sd_rad = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
 }
 
 }  // namespace

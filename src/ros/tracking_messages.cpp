@@ -34,10 +34,7 @@ kinematics::KneeCoordinates jointCoordinates(const registration::Registrar& regi
 std::string jointStatus(const registration::Registrar& registrar, std::size_t joint,
                         const registration::TrackedFrame& tracked) {
   const auto& model = registrar.joints()[joint];
-  const std::string& a = tracked.status[model.parent];
-  const std::string& b = tracked.status[model.child];
-  if (a == "lost" || b == "lost") return "lost";
-  return a == "ok" && b == "ok" ? "ok" : "suspect";
+  return registration::combinedStatus(tracked.status[model.parent], tracked.status[model.child]);
 }
 
 bool kinematicsMessage(const ros::Time& stamp, const registration::Registrar& registrar,

@@ -321,7 +321,8 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
                   std::ostream* quality_csv) {
   if (quality_csv != nullptr) {
     *quality_csv << "condition,trial,frame,bone,bone_success,frame_success,inlier_fraction,"
-                    "contour_rms_px,penetration_mm,envelope_violation,status\n";
+                    "contour_rms_px,penetration_mm,envelope_violation,out_of_plane_sd_mm,"
+                    "rotation_sd_deg,status\n";
   }
   std::vector<Tally> tallies(conditions.size());
   for (Tally& t : tallies) {
@@ -440,7 +441,11 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
                                                                                              : 0)
                          << "," << (success ? 1 : 0) << "," << q.contour_inlier_fraction << ","
                          << q.contour_rms_px << "," << 1e3 * figures.max_depth_m << ","
-                         << joint.envelope_violation << "," << status[b] << "\n";
+                         << joint.envelope_violation << ","
+                         << (q.out_of_plane_sd_m >= 0.0 ? 1e3 * q.out_of_plane_sd_m : -1.0) << ","
+                         << (q.max_rotation_sd_rad >= 0.0 ? geometry::radToDeg(q.max_rotation_sd_rad)
+                                                          : -1.0)
+                         << "," << status[b] << "\n";
           }
         }
       }
@@ -462,15 +467,64 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
 }
 
 void runKneel(const std::string& dir, int starts, std::uint64_t seed,
-              const registration::RegistrationSettings& settings) {
+              const registration::RegistrationSettings& settings, bool search) {
   const auto calibration = io::readJointTrackCalibration(dir + "/calibration.txt");
   const geometry::Mesh femur = geometry::Mesh::load(dir + "/KR_right_7_fem.stl");
   const geometry::Mesh tibia = geometry::Mesh::load(dir + "/KR_right_6_tib.stl");
   const auto femur_poses = io::readJtsFile(dir + "/fem.jts");
   const auto tibia_poses = io::readJtsFile(dir + "/tib.jts");
-  const registration::Registrar registrar(boneModels({&femur, &tibia}, {"femur", "tibia"}),
-                                          settings);
+  const auto registrar_ptr = std::make_shared<const registration::Registrar>(
+      boneModels({&femur, &tibia}, {"femur", "tibia"}), settings);
+  const registration::Registrar& registrar = *registrar_ptr;
   const std::vector<std::string> frames = {"0160", "0170", "0180"};
+  if (search) {
+    // No guess: automatic initialisation on each frame. The knee's envelope resolves mirror
+    // hypotheses: its rotation bounds hold whatever the meshes' origins; flexion is left free
+    // (these meshes' medial-lateral axes point the other way, so flexion comes out negative),
+    // and there is no insert for contact.
+    registration::JointModel knee;
+    knee.name = "knee";
+    knee.parent = 0;
+    knee.child = 1;
+    knee.ligaments.bounds[0] = {-180.0, 180.0};
+    const auto search_registrar = std::make_shared<const registration::Registrar>(
+        registrar.bones(), settings, std::vector<registration::JointModel>{knee});
+    const registration::PoseSearch pose_search(search_registrar);
+    std::cout << "real JointTrack Kneel frames, automatic initialisation (no guess):\n";
+    int within = 0;
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+      const cv::Mat image =
+          cv::imread(dir + "/AT_K1_V1_" + frames[f] + ".tif", cv::IMREAD_UNCHANGED);
+      if (image.empty()) throw InputError("cannot read Kneel frame " + frames[f]);
+      const geometry::XrayCamera camera =
+          io::cameraFromJointTrack(calibration, image.cols, image.rows);
+      const std::vector<Pose> reference = {io::opticalFromJointTrack(*femur_poses[f]),
+                                           io::opticalFromJointTrack(*tibia_poses[f])};
+      std::cout << "  frame " << frames[f] << ":";
+      bool ok = true;
+      try {
+        const auto found = pose_search.search({{image, camera}});
+        for (std::size_t b = 0; b < 2; ++b) {
+          const PoseError e =
+              poseError(found.registration.poses[b], reference[b], Pose::Identity());
+          const double in_plane = std::hypot(e.translation_mm.x(), e.translation_mm.y());
+          std::cout << std::fixed << std::setprecision(2) << (b == 0 ? " femur" : "  tibia")
+                    << " in-plane " << in_plane << " mm, out-of-plane " << e.translation_mm.z()
+                    << " mm, rotation " << e.rotation_deg.norm() << " deg (" << found.status[b]
+                    << ");";
+          ok = ok && in_plane <= 2.0 && e.rotation_deg.norm() <= 3.0;
+        }
+        std::cout << " " << found.regions << " regions, " << found.seconds << " s\n";
+      } catch (const InputError& e) {
+        std::cout << " not found: " << e.what() << "\n";
+        ok = false;
+      }
+      within += ok ? 1 : 0;
+    }
+    std::cout << "  within 2 mm in-plane and 3 deg of the reference: " << within << "/"
+              << frames.size() << "\n";
+    return;
+  }
   std::mt19937_64 rng(seed);
   std::cout << "real JointTrack Kneel frames, " << starts
             << " perturbed start(s) per frame (+-2 mm in-plane, +-3 mm out-of-plane, +-3 deg):\n";
@@ -582,6 +636,14 @@ int main(int argc, char** argv) {
       "ligament-stiffness",
       po::value(&ligaments.stiffness_per_deg)->default_value(ligaments.stiffness_per_deg),
       "ligament springs: residual per degree (and per mm) outside the knee envelope")(
+      "covariance", po::bool_switch(&settings.compute_covariance),
+      "estimate each bone's covariance (for the quality status's standard-deviation tests)")(
+      "suspect-out-of-plane-sd-mm",
+      po::value(&settings.quality.suspect_out_of_plane_sd_mm)->default_value(0.0),
+      "status: suspect above this out-of-plane standard deviation (needs --covariance)")(
+      "suspect-rotation-sd-deg",
+      po::value(&settings.quality.suspect_rotation_sd_deg)->default_value(0.0),
+      "status: suspect above this rotational standard deviation (needs --covariance)")(
       "quality-csv", po::value(&quality_csv_path),
       "write every registration's quality figures and status per bone to this CSV")(
       "contact-dead-band-mm", po::value(&contact.dead_band_mm)->default_value(contact.dead_band_mm),
@@ -653,7 +715,9 @@ int main(int argc, char** argv) {
                    settings, conditions, contact, ligaments,
                    quality_csv.is_open() ? &quality_csv : nullptr);
     }
-    if (!kneel_dir.empty()) runKneel(kneel_dir, kneel_starts, seed, settings);
+    if (!kneel_dir.empty()) {
+      runKneel(kneel_dir, kneel_starts, seed, settings, perturbation.search);
+    }
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "benchmark: error: " << e.what() << "\n";

@@ -216,9 +216,9 @@ int main(int argc, char** argv) {
                 j < result.joints.size()
                     ? result.joints[j].coordinates
                     : joint.coordinates(result.poses[joint.parent], result.poses[joint.child]);
-            const bool lost = status[joint.parent] == "lost" || status[joint.child] == "lost";
             kinematics.push_back(
-                {frame.index, frame.stamp_s, joint.name, coordinates, lost ? "lost" : "ok"});
+                {frame.index, frame.stamp_s, joint.name, coordinates,
+                 registration::combinedStatus(status[joint.parent], status[joint.child])});
             if (contact_csv.is_open() && j < result.joints.size() && result.joints[j].has_contact) {
               const auto& c = result.joints[j].contact;
               contact_csv << frame.index << "," << std::fixed << std::setprecision(6)

@@ -23,6 +23,9 @@ struct BoneQuality {
   // direction single-plane registration pins down worst. Negative when not computed.
   Eigen::Matrix<double, 6, 1> standard_deviations = Eigen::Matrix<double, 6, 1>::Constant(-1.0);
   double out_of_plane_sd_m = -1.0;
+  // The largest rotational standard deviation (rad, any axis): single-plane, a rotation about
+  // an axis across the beam (e.g. a tibial tray's tilt seen edge-on). Negative when not computed.
+  double max_rotation_sd_rad = -1.0;
 };
 
 // How plausible one joint is at the final poses.
@@ -40,7 +43,8 @@ struct JointQuality {
 // suspect_contour_rms_px, when a joint it belongs to penetrates deeper than
 // suspect_penetration_mm or leaves its ligament envelope by more than
 // suspect_envelope_violation (deg or mm), or when its out-of-plane standard deviation exceeds
-// suspect_out_of_plane_sd_mm (0 turns that test off; it needs compute_covariance).
+// suspect_out_of_plane_sd_mm or its largest rotational one exceeds suspect_rotation_sd_deg (0
+// turns a test off; both need compute_covariance).
 struct QualitySettings {
   double inlier_distance_px = 1.5;
   double lost_inlier_fraction = 0.3;
@@ -49,6 +53,7 @@ struct QualitySettings {
   double suspect_penetration_mm = 2.0;
   double suspect_envelope_violation = 5.0;
   double suspect_out_of_plane_sd_mm = 0.0;
+  double suspect_rotation_sd_deg = 0.0;  // likewise for max_rotation_sd_rad (0: off)
 
   void validate() const;  // throws InputError naming the field
 };
@@ -57,6 +62,9 @@ struct QualitySettings {
 // 0 inside.
 double envelopeViolation(const constraints::LigamentSettings& ligaments,
                          const kinematics::KneeCoordinates& coordinates);
+
+// A joint's status from its two bones': lost if either is, ok if both are, else suspect.
+std::string combinedStatus(const std::string& parent, const std::string& child);
 
 // Per bone "ok", "suspect" or "lost" from a registration's quality figures (see QualitySettings).
 std::vector<std::string> classifyBones(const RegistrationResult& result,

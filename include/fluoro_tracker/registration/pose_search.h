@@ -17,6 +17,12 @@ struct PoseSearchSettings {
   double direction_step_deg = 15.0;  // silhouette library: spacing of viewing directions
   double roll_step_deg = 10.0;       // rolls about the beam tried per region
   int matches_per_bone = 4;          // best shape matches per bone (over all regions)
+  // Joints are also matched as a whole: silhouettes of both bones together across the
+  // flexion range (every flexion_step), over viewing directions every direction_step.
+  bool joint_silhouettes = true;
+  double joint_flexion_step_deg = 15.0;
+  double joint_direction_step_deg = 20.0;
+  int joint_matches = 4;  // best joint matches whose bones' poses are tried
   // Every start (matches, their mirrors, envelope samples) is screened by how much of its
   // contour lies on the edges of the frame at this scale; the best few are refined.
   double screening_scale = 0.25;
@@ -36,6 +42,7 @@ struct PoseSearchSettings {
   // per unit of a joint's ligament envelope violation (deg or mm) and penetration (mm).
   double envelope_penalty_per_unit = 0.02;
   double penetration_penalty_per_mm = 0.05;
+  int finalists = 3;  // best combinations registered jointly before the final choice
   imaging::ImplantBlobSettings blobs;
 
   void validate() const;  // throws InputError naming the field
@@ -75,6 +82,14 @@ class PoseSearch {
   PoseSearchSettings settings_;
   std::vector<std::unique_ptr<imaging::SilhouetteLibrary>> libraries_;  // per bone
   std::vector<std::unique_ptr<Registrar>> refiners_;                    // per bone, alone
+  // Per joint: the child's pose in the parent's mesh frame across the envelope.
+  std::vector<std::vector<geometry::Pose>> envelope_;
+  struct JointLibrary {
+    std::size_t joint;
+    geometry::Pose child_in_parent;
+    std::unique_ptr<imaging::SilhouetteLibrary> library;
+  };
+  std::vector<JointLibrary> joint_libraries_;
 };
 
 }  // namespace registration
