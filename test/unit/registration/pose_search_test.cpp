@@ -4,32 +4,15 @@
 
 #include <gtest/gtest.h>
 
-#include "fluoro_tracker/constraints/articular_contact.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
+#include "simulated_knee.h"
 
 using namespace fluoro_tracker;
 using geometry::Pose;
 
-namespace {
-
-std::shared_ptr<const registration::Registrar> kneeRegistrar(const sim::TrialSimulator& sim) {
-  std::vector<registration::BoneModel> bones = {
-      {"femur", std::make_shared<imaging::SilhouetteModel>(sim.implants().femoral_component), 1.0},
-      {"tibia", std::make_shared<imaging::SilhouetteModel>(sim.implants().tibial_tray), 1.0}};
-  registration::JointModel knee;
-  knee.name = "knee";
-  knee.parent = 0;
-  knee.child = 1;
-  knee.contact = std::make_shared<constraints::ArticularContact>(sim.implants().femoral_component,
-                                                                 sim.implants().tibial_insert,
-                                                                 constraints::ContactSettings());
-  return std::make_shared<registration::Registrar>(bones, registration::RegistrationSettings(),
-                                                   std::vector<registration::JointModel>{knee});
-}
-
-}  // namespace
+using test_support::simulatedKneeRegistrar;
 
 TEST(SilhouetteLibrary, RecoversTheOrientationOfARenderedView) {
   sim::TrialSimulatorSettings s;
@@ -61,7 +44,7 @@ TEST(PoseSearch, FindsBothComponentsWithNoGuess) {
     const sim::TrialSimulator sim(s);
     std::mt19937_64 rng(5);
     const auto frame = sim.render(0, &rng);
-    const registration::PoseSearch search(kneeRegistrar(sim));
+    const registration::PoseSearch search(simulatedKneeRegistrar(sim));
     const auto found = search.search({{frame.images[0], sim.views()[0].camera}});
     const Pose camera_from_fixed = sim.views()[0].camera.worldFromCamera().inverse();
     const std::vector<Pose> truth = {frame.femur, frame.tibia};
@@ -82,12 +65,12 @@ TEST(PoseSearch, ABlankFrameIsReportedNotGuessed) {
   sim::TrialSimulatorSettings s;
   s.motion.frames = 10;
   const sim::TrialSimulator sim(s);
-  const registration::PoseSearch search(kneeRegistrar(sim));
+  const registration::PoseSearch search(simulatedKneeRegistrar(sim));
   const cv::Mat blank(sim.views()[0].camera.height(), sim.views()[0].camera.width(), CV_16U,
                       cv::Scalar(1000));
   EXPECT_THROW(search.search({{blank, sim.views()[0].camera}}), InputError);
   registration::PoseSearchSettings bad;
   bad.min_depth_m = 3.0;
   bad.max_depth_m = 1.0;
-  EXPECT_THROW(registration::PoseSearch(kneeRegistrar(sim), bad), InputError);
+  EXPECT_THROW(registration::PoseSearch(simulatedKneeRegistrar(sim), bad), InputError);
 }

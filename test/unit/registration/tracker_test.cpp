@@ -5,9 +5,9 @@
 #include <random>
 
 #include "../test_support.h"
-#include "fluoro_tracker/constraints/articular_contact.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
+#include "simulated_knee.h"
 
 using namespace fluoro_tracker;
 using geometry::Pose;
@@ -81,28 +81,9 @@ TEST(Tracker, BadInputLeavesTheStateAlone) {
   EXPECT_THROW_WITH(registration::Tracker(trial.registrar, {first.femur}), "1 initial pose(s)");
 }
 
-namespace {
-
-// The knee joint (contact of the femoral component on the insert, default ligament bounds)
-// that the automatic search needs to place one bone from the other.
-std::shared_ptr<const registration::Registrar> kneeRegistrar(const Trial& trial) {
-  registration::JointModel knee;
-  knee.name = "knee";
-  knee.parent = 0;
-  knee.child = 1;
-  knee.contact = std::make_shared<constraints::ArticularContact>(
-      trial.simulator.implants().femoral_component, trial.simulator.implants().tibial_insert,
-      constraints::ContactSettings());
-  return std::make_shared<registration::Registrar>(trial.registrar->bones(),
-                                                   trial.registrar->settings(),
-                                                   std::vector<registration::JointModel>{knee});
-}
-
-}  // namespace
-
 TEST(Tracker, StartsWithoutPosesAndRecoversAfterABlankFrame) {
   const Trial trial;
-  const auto registrar = kneeRegistrar(trial);
+  const auto registrar = test_support::simulatedKneeRegistrar(trial.simulator);
   const auto search = std::make_shared<registration::PoseSearch>(registrar);
   registration::Tracker tracker(registrar, {}, search);
   EXPECT_FALSE(tracker.initialized());

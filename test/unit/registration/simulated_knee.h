@@ -1,0 +1,34 @@
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "fluoro_tracker/constraints/articular_contact.h"
+#include "fluoro_tracker/registration/registrar.h"
+#include "fluoro_tracker/sim/trial_simulator.h"
+
+namespace fluoro_tracker {
+namespace test_support {
+
+// A registrar for a simulated trial's knee: the femoral component (bone 0) and tibial tray
+// (bone 1), joined by the knee with contact of the femoral component on the insert and the
+// default ligament bounds (what the automatic search needs to place one bone from the other).
+inline std::shared_ptr<const registration::Registrar> simulatedKneeRegistrar(
+    const sim::TrialSimulator& sim,
+    const registration::RegistrationSettings& settings = registration::RegistrationSettings()) {
+  std::vector<registration::BoneModel> bones = {
+      {"femur", std::make_shared<imaging::SilhouetteModel>(sim.implants().femoral_component), 1.0},
+      {"tibia", std::make_shared<imaging::SilhouetteModel>(sim.implants().tibial_tray), 1.0}};
+  registration::JointModel knee;
+  knee.name = "knee";
+  knee.parent = 0;
+  knee.child = 1;
+  knee.contact = std::make_shared<constraints::ArticularContact>(sim.implants().femoral_component,
+                                                                 sim.implants().tibial_insert,
+                                                                 constraints::ContactSettings());
+  return std::make_shared<registration::Registrar>(bones, settings,
+                                                   std::vector<registration::JointModel>{knee});
+}
+
+}  // namespace test_support
+}  // namespace fluoro_tracker
