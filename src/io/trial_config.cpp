@@ -285,6 +285,15 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
 
 }  // namespace
 
+std::vector<geometry::Pose> TrialConfig::initialPoses() const {
+  std::vector<geometry::Pose> poses;
+  for (const auto& bone : bones) {
+    if (!bone.initial_pose) return {};
+    poses.push_back(*bone.initial_pose);
+  }
+  return poses;
+}
+
 const BoneConfig* TrialConfig::findBone(const std::string& name) const {
   for (const auto& bone : bones) {
     if (bone.name == name) return &bone;

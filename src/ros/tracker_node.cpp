@@ -1,7 +1,5 @@
 #include "fluoro_tracker/ros/tracker_node.h"
 
-#include <algorithm>
-
 #include <chrono>
 #include <cmath>
 
@@ -41,21 +39,16 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   registration::RegistrationSettings settings = config_.registration;
   private_nh_.param("covariance", settings.compute_covariance, true);
   registrar_ = std::make_shared<registration::Registrar>(models_.bones, settings, models_.joints);
-  const bool all_initial = std::all_of(config_.bones.begin(), config_.bones.end(),
-                                       [](const io::BoneConfig& b) { return b.initial_pose; });
-  for (const auto& bone : config_.bones) {
-    if (all_initial) initial_poses_.push_back(*bone.initial_pose);
-  }
+  initial_poses_ = config_.initialPoses();
   // The automatic search finds bones without an initial pose on the first frame and, with
   // ~recover, re-finds lost bones; otherwise it is built on the first ~reinitialize request
   // that asks for it (building its silhouette libraries takes about a second per bone).
   bool recover = false;
   private_nh_.param("recover", recover, false);
-  if (!all_initial || recover) {
+  if (initial_poses_.empty() || recover) {
     search_ = std::make_shared<registration::PoseSearch>(registrar_, config_.search);
   }
-  tracker_ = std::make_unique<registration::Tracker>(registrar_, initial_poses_,
-                                                     recover || !all_initial ? search_ : nullptr);
+  tracker_ = std::make_unique<registration::Tracker>(registrar_, initial_poses_, search_);
 
   overlay_publisher_ = private_image_transport_.advertise("overlay", 1);
   kinematics_publisher_ = private_nh_.advertise<JointKinematics>("kinematics", 10);
@@ -397,9 +390,13 @@ bool TrackerNode::onPlayBag(PlayBag::Request& request, PlayBag::Response& respon
       result_bag = std::make_unique<ResultBag>(request.output_bag_path);
     }
     BagFrameReader reader(request.bag_path, request.image_topics, config_.fixed_frame);
-    registration::Tracker tracker(
-        registrar_, initial_poses_,
-        initial_poses_.empty() || tracker_->canSearch() ? search_ : nullptr);
+    // Searches as the live tracker does (always when the trial has no initial poses).
+    std::shared_ptr<const registration::PoseSearch> search;
+    {
+      std::lock_guard<std::mutex> lock(tracker_mutex_);
+      if (tracker_->canSearch()) search = search_;
+    }
+    registration::Tracker tracker(registrar_, initial_poses_, search);
     const auto& bones = registrar_->bones();
     std::vector<io::PoseRecord> poses;
     std::vector<io::KinematicsRecord> kinematics;

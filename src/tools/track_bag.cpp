@@ -106,8 +106,6 @@ int main(int argc, char** argv) {
     if (!init_path.empty()) {
       for (const auto& r : io::readPosesCsv(init_path)) guesses[{r.frame, r.bone}] = r.pose;
     }
-    const bool all_initial = std::all_of(config.bones.begin(), config.bones.end(),
-                                         [](const io::BoneConfig& b) { return b.initial_pose; });
     std::map<std::pair<int, std::string>, Pose> truth;
     if (!truth_path.empty()) {
       for (const auto& r : io::readPosesCsv(truth_path)) truth[{r.frame, r.bone}] = r.pose;
@@ -122,13 +120,10 @@ int main(int argc, char** argv) {
     if (init_path.empty()) {
       // Bones without an initial pose are found by the automatic search on the first frame;
       // with --recover, lost frames are searched again until tracking is back.
+      const std::vector<Pose> initial = config.initialPoses();
       std::shared_ptr<registration::PoseSearch> search;
-      if (!all_initial || recover) {
+      if (initial.empty() || recover) {
         search = std::make_shared<registration::PoseSearch>(registrar_ptr, config.search);
-      }
-      std::vector<Pose> initial;
-      for (const auto& bone : config.bones) {
-        if (all_initial) initial.push_back(*bone.initial_pose);
       }
       tracker = std::make_unique<registration::Tracker>(registrar_ptr, initial, search);
     }

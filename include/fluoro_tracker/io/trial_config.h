@@ -55,6 +55,9 @@ struct TrialConfig {
   registration::PoseSearchSettings search;          // its `search:` subsection
 
   const BoneConfig* findBone(const std::string& name) const;
+  // Every bone's initial pose in bone order, or none when some bone has none (the tracker then
+  // finds them all with the automatic search).
+  std::vector<geometry::Pose> initialPoses() const;
 };
 
 // Throws InputError naming the file, the key and (for YAML syntax errors) the line.
