@@ -75,7 +75,7 @@ SilhouetteLibrary::SilhouetteLibrary(const geometry::Mesh& mesh, double directio
   if (!(direction_step_deg > 1.0 && direction_step_deg < 90.0)) {
     throw InputError("silhouette library: direction step must be in (1, 90) degrees");
   }
-  const double step = direction_step_deg * kPi / 180.0;
+  const double step = geometry::degToRad(direction_step_deg);
   const int directions = std::max(2, static_cast<int>(std::lround(4.0 * kPi / (step * step))));
   const double golden = kPi * (3.0 - std::sqrt(5.0));
   for (int i = 0; i < directions; ++i) {
@@ -131,7 +131,7 @@ std::vector<ShapeMatch> SilhouetteLibrary::match(const ImplantBlob& blob, int co
   });
   std::vector<ShapeMatch> best;
   std::vector<Eigen::Matrix3d> orientations;
-  const double min_separation = min_separation_deg * kPi / 180.0;
+  const double min_separation = geometry::degToRad(min_separation_deg);
   for (const ShapeMatch& candidate : all) {
     if (static_cast<int>(best.size()) >= count) break;
     const Eigen::Matrix3d orientation =

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "fluoro_tracker/input_error.h"
 
@@ -29,7 +30,22 @@ geometry::Pose mirroredAcrossBeam(const geometry::Pose& camera_from_mesh) {
 
 bool isSameHypothesis(const geometry::Pose& a, const geometry::Pose& b) {
   return (a.translation() - b.translation()).norm() < 2e-3 &&
-         geometry::rotationAngleBetween(a.linear(), b.linear()) < 2.0 * 3.14159265358979 / 180.0;
+         geometry::rotationAngleBetween(a.linear(), b.linear()) < geometry::degToRad(2.0);
+}
+
+// A match's pose (camera frame), if its distance from the source is plausible for a bone.
+std::optional<geometry::Pose> plausibleMatchPose(const imaging::SilhouetteLibrary& library,
+                                                 const imaging::ShapeMatch& match,
+                                                 const imaging::ImplantBlob& blob,
+                                                 const geometry::XrayCamera& camera,
+                                                 const PoseSearchSettings& settings) {
+  const geometry::Pose pose = library.cameraFromMesh(match, blob, camera);
+  const double depth = pose.translation().z();
+  if (!pose.translation().allFinite() || depth < settings.min_depth_m ||
+      depth > settings.max_depth_m) {
+    return std::nullopt;
+  }
+  return pose;
 }
 
 // The image's starting poses for one bone (camera frame): the best shape matches over all
@@ -46,11 +62,8 @@ std::vector<geometry::Pose> shapeMatchStarts(const imaging::SilhouetteLibrary& l
   std::vector<Start> starts;
   for (const auto& blob : blobs) {
     for (const auto& match : library.match(blob, count, settings.roll_step_deg)) {
-      const geometry::Pose pose = library.cameraFromMesh(match, blob, camera);
-      const double depth = pose.translation().z();
-      if (pose.translation().allFinite() && depth >= settings.min_depth_m &&
-          depth <= settings.max_depth_m) {
-        starts.push_back({match.dissimilarity, pose});
+      if (const auto pose = plausibleMatchPose(library, match, blob, camera, settings)) {
+        starts.push_back({match.dissimilarity, *pose});
       }
     }
   }
@@ -97,14 +110,14 @@ geometry::Pose jointPartner(const JointModel& joint, const geometry::Pose& known
 // Knee coordinates moved to the nearest point of the ligament envelope.
 kinematics::KneeCoordinates clampedToEnvelope(const constraints::LigamentSettings& ligaments,
                                               kinematics::KneeCoordinates k) {
-  constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
   const auto& b = ligaments.bounds;
   const auto clamp = [](double value, const constraints::CoordinateBounds& bounds, double unit) {
     return std::clamp(value, bounds.lower * unit, bounds.upper * unit);
   };
-  k.flexion_rad = clamp(k.flexion_rad, b[0], kRadPerDeg);
-  k.adduction_rad = clamp(k.adduction_rad, b[1], kRadPerDeg);
-  k.internal_rotation_rad = clamp(k.internal_rotation_rad, b[2], kRadPerDeg);
+  const double rad_per_deg = geometry::degToRad(1.0);
+  k.flexion_rad = clamp(k.flexion_rad, b[0], rad_per_deg);
+  k.adduction_rad = clamp(k.adduction_rad, b[1], rad_per_deg);
+  k.internal_rotation_rad = clamp(k.internal_rotation_rad, b[2], rad_per_deg);
   k.x_m = clamp(k.x_m, b[3], 1e-3);
   k.y_m = clamp(k.y_m, b[4], 1e-3);
   k.z_m = clamp(k.z_m, b[5], 1e-3);
@@ -122,7 +135,6 @@ std::vector<geometry::Pose> envelopeSamples(const JointModel& joint, double flex
   const auto middle = [](const constraints::CoordinateBounds& b) {
     return std::isfinite(b.lower) && std::isfinite(b.upper) ? 0.5 * (b.lower + b.upper) : 0.0;
   };
-  constexpr double kRadPerDeg = 3.14159265358979323846 / 180.0;
   const double lowest = std::isfinite(bounds[0].lower) ? bounds[0].lower : -10.0;
   const double highest = std::isfinite(bounds[0].upper) ? bounds[0].upper : 150.0;
   const bool free_distraction = !std::isfinite(bounds[4].lower) || !std::isfinite(bounds[4].upper);
@@ -138,9 +150,9 @@ std::vector<geometry::Pose> envelopeSamples(const JointModel& joint, double flex
   for (double flexion = lowest; flexion <= highest + 1e-9; flexion += flexion_step_deg) {
     for (double x_mm : anterior_mm) {
       kinematics::KneeCoordinates k;
-      k.flexion_rad = flexion * kRadPerDeg;
-      k.adduction_rad = middle(bounds[1]) * kRadPerDeg;
-      k.internal_rotation_rad = middle(bounds[2]) * kRadPerDeg;
+      k.flexion_rad = geometry::degToRad(flexion);
+      k.adduction_rad = geometry::degToRad(middle(bounds[1]));
+      k.internal_rotation_rad = geometry::degToRad(middle(bounds[2]));
       k.x_m = x_mm * 1e-3;
       k.y_m = middle(bounds[4]) * 1e-3;
       k.z_m = middle(bounds[5]) * 1e-3;
@@ -292,6 +304,15 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
     }
   };
 
+  // A camera-frame start moved to the fixed frame, with its mirror hypothesis.
+  const auto addStart = [&](std::vector<geometry::Pose>* starts,
+                            const geometry::Pose& camera_pose) {
+    starts->push_back(first.camera.worldFromCamera() * camera_pose);
+    if (settings_.mirror_hypotheses) {
+      starts->push_back(first.camera.worldFromCamera() * mirroredAcrossBeam(camera_pose));
+    }
+  };
+
   // 1. Each bone on its own: shape matches of the image's regions, mirrored, at a few
   // distances (a region thresholded from a blurred rim is smaller than the silhouette); and
   // both bones of a joint from matches of the joint's combined silhouettes.
@@ -307,14 +328,11 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
     for (const JointLibrary& jl : joint_libraries_) {
       for (const auto& blob : blobs) {
         for (const auto& match : jl.library->match(blob, 2, settings_.roll_step_deg)) {
-          const geometry::Pose parent = jl.library->cameraFromMesh(match, blob, first.camera);
-          const double depth = parent.translation().z();
-          if (!parent.translation().allFinite() || depth < settings_.min_depth_m ||
-              depth > settings_.max_depth_m) {
-            continue;
+          if (const auto parent =
+                  plausibleMatchPose(*jl.library, match, blob, first.camera, settings_)) {
+            found_joints.push_back(
+                {match.dissimilarity, jl.joint, *parent, *parent * jl.child_in_parent});
           }
-          found_joints.push_back(
-              {match.dissimilarity, jl.joint, parent, parent * jl.child_in_parent});
         }
       }
     }
@@ -330,14 +348,8 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
         geometry::Pose child = js.child;
         parent.translation() *= depth_factor;
         child.translation() *= depth_factor;
-        joint_starts[joint.parent].push_back(first.camera.worldFromCamera() * parent);
-        joint_starts[joint.child].push_back(first.camera.worldFromCamera() * child);
-        if (settings_.mirror_hypotheses) {
-          joint_starts[joint.parent].push_back(first.camera.worldFromCamera() *
-                                               mirroredAcrossBeam(parent));
-          joint_starts[joint.child].push_back(first.camera.worldFromCamera() *
-                                              mirroredAcrossBeam(child));
-        }
+        addStart(&joint_starts[joint.parent], parent);
+        addStart(&joint_starts[joint.child], child);
       }
     }
   }
@@ -348,10 +360,7 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
       for (const double depth_factor : {1.0, 0.93, 0.86}) {
         geometry::Pose scaled = camera_pose;
         scaled.translation() *= depth_factor;
-        starts.push_back(first.camera.worldFromCamera() * scaled);
-        if (settings_.mirror_hypotheses) {
-          starts.push_back(first.camera.worldFromCamera() * mirroredAcrossBeam(scaled));
-        }
+        addStart(&starts, scaled);
       }
     }
     if (!seeds.empty() && geometry::isValidPose(seeds[b])) starts.push_back(seeds[b]);
@@ -370,10 +379,9 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
     for (const Hypothesis& h : best) {
       for (const double spin_deg : {-30.0, -15.0, 15.0, 30.0}) {
         geometry::Pose spun = h.pose;
-        spun.linear() =
-            h.pose.linear() *
-            Eigen::AngleAxisd(spin_deg * 3.14159265358979323846 / 180.0, Eigen::Vector3d::UnitY())
-                .toRotationMatrix();
+        spun.linear() = h.pose.linear() *
+                        Eigen::AngleAxisd(geometry::degToRad(spin_deg), Eigen::Vector3d::UnitY())
+                            .toRotationMatrix();
         starts.push_back(spun);
       }
     }
