@@ -71,7 +71,7 @@ std::vector<std::string> classifyBones(const RegistrationResult& result,
                (settings.suspect_out_of_plane_sd_mm > 0.0 && q.out_of_plane_sd_m >= 0.0 &&
                 q.out_of_plane_sd_m * 1000.0 > settings.suspect_out_of_plane_sd_mm) ||
                (settings.suspect_rotation_sd_deg > 0.0 && q.max_rotation_sd_rad >= 0.0 &&
-                q.max_rotation_sd_rad * 57.29577951308232 > settings.suspect_rotation_sd_deg)) {
+                geometry::radToDeg(q.max_rotation_sd_rad) > settings.suspect_rotation_sd_deg)) {
       status[b] = "suspect";
     }
   }

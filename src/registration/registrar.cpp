@@ -222,11 +222,10 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
   return quality;
 }
 
-// Standard deviations from a bone's pose covariance (ROS order), and the translation's along
-// the beam of `camera` through the bone's origin.
+// From a bone's pose covariance (ROS order): the translation's standard deviation along the
+// beam of `camera` through the bone's origin, and the largest rotational one.
 void addCovarianceQuality(const Eigen::Matrix<double, 6, 6>& covariance, const geometry::Pose& pose,
                           const geometry::XrayCamera& camera, BoneQuality* quality) {
-  quality->standard_deviations = covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
   const Eigen::Vector3d beam =
       (pose.translation() - camera.worldFromCamera().translation()).normalized();
   quality->out_of_plane_sd_m =

@@ -3,8 +3,6 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
-
 #include "fluoro_tracker/constraints/ligament_envelope.h"
 #include "fluoro_tracker/kinematics/knee_coordinates.h"
 
@@ -18,10 +16,9 @@ struct BoneQuality {
   int contour_points = 0;                // projected contour samples in all views (full resolution)
   double contour_inlier_fraction = 0.0;  // of those, the share within inlier_distance_px of an edge
   double contour_rms_px = 0.0;  // RMS edge distance of the inliers (full-resolution pixels)
-  // Standard deviations from the solver's covariance (when computed): x, y, z (m) and rotations
-  // about the fixed X, Y, Z (rad); and the translation's along the first view's beam (m), the
-  // direction single-plane registration pins down worst. Negative when not computed.
-  Eigen::Matrix<double, 6, 1> standard_deviations = Eigen::Matrix<double, 6, 1>::Constant(-1.0);
+  // From the solver's covariance (RegistrationResult::covariances, when computed): the
+  // translation's standard deviation along the first view's beam (m), the direction
+  // single-plane registration pins down worst. Negative when not computed.
   double out_of_plane_sd_m = -1.0;
   // The largest rotational standard deviation (rad, any axis): single-plane, a rotation about
   // an axis across the beam (e.g. a tibial tray's tilt seen edge-on). Negative when not computed.
