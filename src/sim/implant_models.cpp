@@ -29,15 +29,31 @@ double trayRadius(const KneeImplantDimensions& d, double theta, double shrink) {
 
 constexpr double kInsertShrink = 0.97;
 
+// Medial-lateral distance of each condyle's centre (and of each dished track of the insert) from
+// the component's midline.
+constexpr double kCondyleTrackMm = 21.0;
+
 double dishOffsetMm(const KneeImplantDimensions& d, double x, double z) {
-  // Two condylar tracks centred 21 mm either side, slightly posterior.
-  const double track = 21.0;
+  // Two condylar tracks, slightly posterior. Medial-lateral width 10 mm: with a 3 mm depth the
+  // bottom's coronal radius is 33 mm, a little larger than the condyles' (30 mm), so each condyle
+  // sits in its track as on a real insert, and sliding medial-lateral climbs a track's wall.
+  // Toward the midline the wall rises only to the central eminence, which stays below the
+  // femoral component's intercondylar region (real components have an open notch there), so
+  // the condyles, not the eminence, carry the load.
+  const double dx = x + 2.0;
+  const double along = std::exp(-(dx * dx) / (2.0 * 13.0 * 13.0));
   double offset = 0.0;
-  for (double zc : {-track, track}) {
+  for (double zc : {-kCondyleTrackMm, kCondyleTrackMm}) {
+    // The lateral (+z) track is shallower by as much as the lateral condyle is smaller, so
+    // that both condyles bear load in neutral alignment.
+    const double bottom =
+        std::max(0.0, d.dish_depth_mm - (zc > 0.0 ? d.lateral_condyle_offset_mm : 0.0));
+    const double eminence = std::clamp(d.eminence_height_mm, 0.0, bottom);
     const double dz = z - zc;
-    const double dx = x + 2.0;
-    offset = std::min(offset, -d.dish_depth_mm * std::exp(-(dz * dz) / (2.0 * 9.0 * 9.0) -
-                                                          (dx * dx) / (2.0 * 13.0 * 13.0)));
+    const double across = std::exp(-(dz * dz) / (2.0 * 10.0 * 10.0));
+    const bool toward_midline = dz * zc < 0.0;
+    const double depth = toward_midline ? bottom - eminence * (1.0 - across) : bottom * across;
+    offset = std::min(offset, -depth * along);
   }
   return offset;
 }
@@ -53,9 +69,10 @@ double boxCutDistance(double phi) {
   const double r2 = std::sqrt(0.5);
   const Cut cuts[] = {
       {{1.0, 0.0}, 17.0},   // anterior
-      {{r2, -r2}, 20.0},    // anterior chamfer
+      {{r2, -r2}, 18.5},    // anterior chamfer
       {{0.0, -1.0}, 18.0},  // distal
-      {{-r2, -r2}, 20.0},   // posterior chamfer
+      {{-r2, -r2}, 18.5},   // posterior chamfer (deep enough for the condyles' coronal
+                            // rounding to keep 1.5 mm of metal at the chamfer corners)
       {{-1.0, 0.0}, 16.0},  // posterior
       {{0.0, 1.0}, 60.0},   // top of the box (never reached by the component)
   };
@@ -119,6 +136,12 @@ Mesh makeFemoralComponent(const KneeImplantDimensions& d) {
     const double groove_depth = 2.5 + 4.0 * std::clamp((phi_deg - 90.0) / 60.0, 0.0, 1.0);
     const double groove_width = 6.0 + 3.0 * std::clamp((phi_deg - 90.0) / 60.0, 0.0, 1.0);
     r -= groove_depth * std::exp(-(z * z) / (2.0 * groove_width * groove_width));
+    // Each condyle is rounded in the coronal plane (a torus about its track), as on real
+    // components; 0 leaves the condyles flat across.
+    if (d.condyle_coronal_radius_mm > 0.0) {
+      const double from_track = std::abs(z) - kCondyleTrackMm;
+      r -= from_track * from_track / (2.0 * d.condyle_coronal_radius_mm);
+    }
     // Rounded medial and lateral edges.
     r -= 3.0 * std::pow(std::abs(z) / half_width, 8.0);
     // Never thinner than 1.5 mm.

@@ -80,15 +80,18 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
 
   const io::YamlSection i = r.child("implants");
   i.allowOnly({"width_mm", "distal_radius_mm", "posterior_radius_mm", "lateral_condyle_offset_mm",
-               "tray_ap_mm", "tray_ml_mm", "insert_thickness_mm", "dish_depth_mm"});
+               "condyle_coronal_radius_mm", "tray_ap_mm", "tray_ml_mm", "insert_thickness_mm",
+               "dish_depth_mm", "eminence_height_mm"});
   i.read("width_mm", &s.implants.width_mm);
   i.read("distal_radius_mm", &s.implants.distal_radius_mm);
   i.read("posterior_radius_mm", &s.implants.posterior_radius_mm);
   i.read("lateral_condyle_offset_mm", &s.implants.lateral_condyle_offset_mm);
+  i.read("condyle_coronal_radius_mm", &s.implants.condyle_coronal_radius_mm);
   i.read("tray_ap_mm", &s.implants.tray_ap_mm);
   i.read("tray_ml_mm", &s.implants.tray_ml_mm);
   i.read("insert_thickness_mm", &s.implants.insert_thickness_mm);
   i.read("dish_depth_mm", &s.implants.dish_depth_mm);
+  i.read("eminence_height_mm", &s.implants.eminence_height_mm);
 
   try {
     s.validate();

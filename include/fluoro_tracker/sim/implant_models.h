@@ -12,11 +12,14 @@ namespace sim {
 // Femoral component (femur frame): origin on the flexion axis, the centre of the posterior
 // condylar arcs. A J-curved shell ~70 mm wide: anterior flange, distal and posterior condyles
 // with a trochlear groove / intercondylar notch, inner box cuts (anterior, chamfers, distal,
-// posterior), and a slightly smaller lateral condyle so that views are not mirror images.
+// posterior), and a slightly smaller lateral condyle so that views are not mirror images. Each
+// condyle is rounded in the coronal plane about its track, 21 mm from the midline.
 //
 // Tibial tray (tibia frame): origin at the centre of the tray's top surface; a 4 mm plate with a
 // posterior cruciate notch and a 36 mm stem. Tibial insert: polyethylene on the tray, 10 mm
-// thick, with two dished condylar tracks; nearly invisible in X-ray, it carries the contact.
+// thick, with two dished condylar tracks (the lateral one shallower by the lateral condyle's
+// offset, so both condyles bear load) and a low central eminence that the femoral component's
+// intercondylar region clears; nearly invisible in X-ray, it carries the contact.
 struct KneeImplantSet {
   geometry::Mesh femoral_component;
   geometry::Mesh tibial_tray;
@@ -24,14 +27,16 @@ struct KneeImplantSet {
 };
 
 struct KneeImplantDimensions {
-  double width_mm = 70.0;                  // medial-lateral width of the femoral component
-  double distal_radius_mm = 25.0;          // articular radius, distal and anterior
-  double posterior_radius_mm = 23.0;       // articular radius, posterior condyles
-  double lateral_condyle_offset_mm = 1.0;  // lateral condyle smaller by this much
+  double width_mm = 70.0;                   // medial-lateral width of the femoral component
+  double distal_radius_mm = 25.0;           // articular radius, distal and anterior
+  double posterior_radius_mm = 23.0;        // articular radius, posterior condyles
+  double lateral_condyle_offset_mm = 1.0;   // lateral condyle smaller by this much
+  double condyle_coronal_radius_mm = 30.0;  // condyles' radius in the coronal plane; 0: flat
   double tray_ap_mm = 48.0;
   double tray_ml_mm = 74.0;
   double insert_thickness_mm = 10.0;
   double dish_depth_mm = 3.0;
+  double eminence_height_mm = 1.5;  // insert's central eminence above the tracks' bottoms
 };
 
 KneeImplantSet makeKneeImplants(const KneeImplantDimensions& dimensions = {});

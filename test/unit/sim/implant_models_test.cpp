@@ -32,7 +32,9 @@ TEST(ImplantModels, ComponentsAreClosedAndOfRealisticSize) {
   EXPECT_NEAR(tray.min().y(), -0.040, 1e-9);  // stem tip
   const Eigen::AlignedBox3d insert = set.tibial_insert.bounds();
   EXPECT_NEAR(insert.min().y(), 0.0, 1e-9);
-  EXPECT_NEAR(insert.max().y(), 0.010, 1e-4);
+  // 10 mm thick at the rims; the dished tracks and the eminence lie below that.
+  EXPECT_LE(insert.max().y(), 0.010 + 1e-9);
+  EXPECT_GT(insert.max().y(), 0.0095);
 }
 
 TEST(ImplantModels, InsertSurfaceHeightMatchesTheMesh) {
@@ -74,6 +76,35 @@ TEST(KneeMotion, FemurRestsOnTheInsertInEveryFrame) {
   }
   EXPECT_NEAR(min_flexion, motion.start_flexion_deg, 1e-9);
   EXPECT_NEAR(max_flexion, motion.max_flexion_deg, 1e-9);
+}
+
+// Like a real component on its insert, each condyle rests in its own dished track: in neutral
+// alignment both condyles are within 0.3 mm of the insert at every flexion angle, and the
+// intercondylar region never carries the load (it clears the central eminence).
+TEST(KneeMotion, BothCondylesRestInTheirTracks) {
+  const sim::KneeImplantDimensions d;
+  const sim::KneeImplantSet set = sim::makeKneeImplants(d);
+  const sim::KneeContactSolver contact(set, d);
+  for (double flexion : {0.0, 30.0, 60.0, 90.0, 120.0}) {
+    sim::KneeMotionSettings motion;
+    motion.frames = 1;
+    motion.start_flexion_deg = motion.max_flexion_deg = flexion;
+    motion.internal_rotation_at_max_deg = 0.0;
+    motion.rollback_at_max_mm = 0.0;
+    motion.adduction_amplitude_deg = 0.0;
+    const geometry::Pose tibia_from_femur = sim::kneePoseAt(motion, 0, contact).tibia_from_femur;
+    double medial = 1e9, lateral = 1e9, central = 1e9;  // smallest clearance per region (m)
+    for (const auto& v : set.femoral_component.vertices()) {
+      const Eigen::Vector3d p = tibia_from_femur * v;
+      if (!sim::isOverInsert(d, p.x(), p.z())) continue;
+      const double clearance = p.y() - sim::insertSurfaceHeight(d, p.x(), p.z());
+      double& region = p.z() < -0.012 ? medial : p.z() > 0.012 ? lateral : central;
+      region = std::min(region, clearance);
+    }
+    EXPECT_LT(medial, 3e-4) << flexion << " deg: the medial condyle is off its track";
+    EXPECT_LT(lateral, 3e-4) << flexion << " deg: the lateral condyle is off its track";
+    EXPECT_GT(central, 5e-4) << flexion << " deg: the intercondylar region rests on the insert";
+  }
 }
 
 TEST(KneeMotion, InvalidSettingsAreNamed) {
