@@ -13,6 +13,7 @@ packages=(
   libdiagnostic-updater-dev
   libeigen3-dev libopencv-dev libfcl-dev libceres-dev libassimp-dev libyaml-cpp-dev
   libboost-program-options-dev
+  rviz xvfb xauth scrot
 )
 
 sudo_cmd=()

@@ -11,7 +11,9 @@ set +u
 source build/devel/setup.bash
 set -u
 rm -rf build/test_results
-make -C build run_tests > build/run_tests.log 2>&1 || { tail -50 build/run_tests.log; exit 1; }
+# Under a virtual X display: the rviz rostest draws config/tracker.rviz and takes a screenshot.
+xvfb-run -a -s "-screen 0 1280x800x24" make -C build run_tests > build/run_tests.log 2>&1 ||
+  { tail -50 build/run_tests.log; exit 1; }
 set +e
 summary=$(catkin_test_results --verbose build/test_results)
 status=$?

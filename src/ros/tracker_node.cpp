@@ -1,5 +1,6 @@
 #include "fluoro_tracker/ros/tracker_node.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -70,6 +71,7 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   if (load_threshold_n_ > 0.0) {
     wrench_subscriber_ = nh_.subscribe("wrench", 10, &TrackerNode::onWrench, this);
   }
+  publishLabTransform();
   int views = 1;
   private_nh_.param("views", views, 1);
   bool exact_sync = true;
@@ -103,6 +105,54 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   } else {
     throw InputError("tracker_node: ~views must be 1 or 2, not " + std::to_string(views));
   }
+}
+
+void TrackerNode::publishLabTransform() {
+  std::string lab_frame;
+  private_nh_.param("lab_frame", lab_frame, std::string());
+  if (lab_frame.empty() || lab_frame == "none") return;
+  std::vector<double> values;
+  private_nh_.param("lab_from_fluoroscope", values, std::vector<double>());
+  const bool finite =
+      std::all_of(values.begin(), values.end(), [](double v) { return std::isfinite(v); });
+  if (values.size() != 7 || !finite) {
+    ROS_ERROR(
+        "tracker_node: ~lab_from_fluoroscope must be 7 finite numbers (x y z in m, qx qy "
+        "qz qw); no transform to '%s' is published",
+        lab_frame.c_str());
+    return;
+  }
+  const Eigen::Quaterniond rotation(values[6], values[3], values[4], values[5]);
+  if (!(rotation.norm() > 1e-6)) {
+    ROS_ERROR(
+        "tracker_node: ~lab_from_fluoroscope's quaternion is zero; no transform to '%s' "
+        "is published",
+        lab_frame.c_str());
+    return;
+  }
+  if (config_.fixed_frame.empty()) {
+    ROS_ERROR(
+        "tracker_node: ~lab_frame needs the trial's fixed_frame (e.g. fluoro_optical) to "
+        "know which frame to place in '%s'; no transform is published",
+        lab_frame.c_str());
+    return;
+  }
+  if (lab_frame == config_.fixed_frame) {
+    ROS_ERROR(
+        "tracker_node: ~lab_frame '%s' is the trial's fixed frame itself; no transform is "
+        "published",
+        lab_frame.c_str());
+    return;
+  }
+  geometry_msgs::TransformStamped transform;
+  transform.header.stamp = ros::Time::now();  // static: the stamp is not used for lookups
+  transform.header.frame_id = lab_frame;
+  transform.child_frame_id = config_.fixed_frame;
+  transform.transform = toTransformMessage(
+      geometry::makePose(rotation.normalized(), Eigen::Vector3d(values[0], values[1], values[2])));
+  static_tf_broadcaster_.sendTransform(transform);
+  ROS_INFO("tracker_node: '%s' placed in the lab frame '%s'", config_.fixed_frame.c_str(),
+           lab_frame.c_str());
 }
 
 TrackerNode::~TrackerNode() {
@@ -228,10 +278,12 @@ void TrackerNode::process(const PendingFrame& frame) {
     pose_publishers_[b].publish(pose);
   }
 
+  std::vector<JointKinematics> kinematics;
   for (std::size_t j = 0; j < registrar_->joints().size(); ++j) {
     JointKinematics message;
     if (kinematicsMessage(frame.header.stamp, *registrar_, j, tracked, force_n, loaded, &message)) {
       kinematics_publisher_.publish(message);
+      kinematics.push_back(message);
     }
   }
 
@@ -249,7 +301,9 @@ void TrackerNode::process(const PendingFrame& frame) {
     last_solve_seconds_ = tracked.solve_seconds;
   }
   diagnostics_.update();
-  if (marker_publisher_.getNumSubscribers() > 0) publishMarkers(frame.header, fixed_frame, tracked);
+  if (marker_publisher_.getNumSubscribers() > 0) {
+    publishMarkers(frame.header, fixed_frame, tracked, kinematics);
+  }
 
   if (overlay_publisher_.getNumSubscribers() > 0) {
     std::vector<const imaging::SilhouetteModel*> models;
@@ -263,7 +317,8 @@ void TrackerNode::process(const PendingFrame& frame) {
 }
 
 void TrackerNode::publishMarkers(const std_msgs::Header& header, const std::string& fixed_frame,
-                                 const registration::TrackedFrame& tracked) {
+                                 const registration::TrackedFrame& tracked,
+                                 const std::vector<JointKinematics>& kinematics) {
   visualization_msgs::MarkerArray markers;
   const auto& bones = registrar_->bones();
   auto marker = [&](const std::string& ns, std::size_t id, int type) {
@@ -310,6 +365,20 @@ void TrackerNode::publishMarkers(const std_msgs::Header& header, const std::stri
     }
     m.action =
         m.points.empty() ? visualization_msgs::Marker::DELETE : visualization_msgs::Marker::ADD;
+    markers.markers.push_back(m);
+  }
+  // Each joint's coordinates as a label 8 cm from its child bone along the fixed frame's -Y
+  // (above it in the usual optical fixed frame, image up), clear of the meshes.
+  for (std::size_t j = 0; j < kinematics.size(); ++j) {
+    visualization_msgs::Marker m =
+        marker("kinematics", j, visualization_msgs::Marker::TEXT_VIEW_FACING);
+    const auto& joint = registrar_->joints()[j];
+    Eigen::Vector3d at = tracked.poses[joint.child].translation();
+    at.y() -= 0.08 + 0.03 * static_cast<double>(j);
+    m.pose = toPoseMessage(geometry::Pose(Eigen::Translation3d(at)));
+    m.scale.z = 0.007;
+    m.color = colour(1.0f, 1.0f, 1.0f, 1.0f);
+    m.text = kinematicsLabel(kinematics[j]);
     markers.markers.push_back(m);
   }
   marker_publisher_.publish(markers);

@@ -1,7 +1,10 @@
 #include "fluoro_tracker/ros/tracking_messages.h"
 
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 
+#include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/ros/conversions.h"
 
 namespace fluoro_tracker {
@@ -59,6 +62,22 @@ bool kinematicsMessage(const ros::Time& stamp, const registration::Registrar& re
   message->compressive_force_n = compressive_force_n;
   message->loaded = loaded && model.loaded_contact != nullptr;
   return true;
+}
+
+std::string kinematicsLabel(const JointKinematics& kinematics) {
+  std::ostringstream label;
+  label << std::fixed << std::setprecision(1) << kinematics.joint << " (" << kinematics.status
+        << ")";
+  for (std::size_t i = 0; i < kinematics.angles.size() && i < kinematics.angle_names.size(); ++i) {
+    label << (i == 0 ? "\n" : "  ") << kinematics.angle_names[i] << " "
+          << geometry::radToDeg(kinematics.angles[i]) << " deg";
+  }
+  for (std::size_t i = 0;
+       i < kinematics.translations.size() && i < kinematics.translation_names.size(); ++i) {
+    label << (i == 0 ? "\n" : "  ") << kinematics.translation_names[i] << " "
+          << 1e3 * kinematics.translations[i] << " mm";
+  }
+  return label.str();
 }
 
 TrackingStatus statusMessage(const std_msgs::Header& header,

@@ -170,6 +170,24 @@ TEST(TrackerNode, PublishesTfNearTheTruthAndFiniteKinematics) {
   if (!fast_playback) {
     EXPECT_GE(with_covariance, 0.9 * femur_poses.size());
   }
+  // The launch files' default lab frame: the X-ray source at its origin, the beam along its +X
+  // and the image's up (optical -Y) along its +Z, on /tf_static (single view; a bi-plane trial's
+  // fixed frame is the lab already).
+  if (fixed_frame != "lab") {
+    try {
+      const geometry::Pose lab_from_fixed =
+          tf2::transformToEigen(buffer.lookupTransform("lab", fixed_frame, ros::Time(0)));
+      EXPECT_LT(lab_from_fixed.translation().norm(), 1e-9);
+      EXPECT_LT(
+          (lab_from_fixed.linear() * Eigen::Vector3d::UnitZ() - Eigen::Vector3d::UnitX()).norm(),
+          1e-9);
+      EXPECT_LT(
+          (lab_from_fixed.linear() * -Eigen::Vector3d::UnitY() - Eigen::Vector3d::UnitZ()).norm(),
+          1e-9);
+    } catch (const tf2::TransformException& e) {
+      ADD_FAILURE() << "no lab frame: " << e.what();
+    }
+  }
   // Every frame is either tracked or counted as dropped.
   const std::size_t dropped = statuses.back().frames_dropped;
   std::cout << "tracker_node_check: " << statuses.size() << " frames tracked, " << dropped

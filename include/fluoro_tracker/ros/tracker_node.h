@@ -19,9 +19,11 @@
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <tf2_ros/buffer.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
+#include "fluoro_tracker/JointKinematics.h"
 #include "fluoro_tracker/PlayBag.h"
 #include "fluoro_tracker/Reinitialize.h"
 #include "fluoro_tracker/io/trial_config.h"
@@ -73,8 +75,12 @@ class TrackerNode {
   void work();
   void process(const PendingFrame& frame);
   void publishMarkers(const std_msgs::Header& header, const std::string& fixed_frame,
-                      const registration::TrackedFrame& tracked);
+                      const registration::TrackedFrame& tracked,
+                      const std::vector<JointKinematics>& kinematics);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+  // Publishes ~lab_frame -> the trial's fixed frame from ~lab_from_fluoroscope on /tf_static
+  // (e.g. the fluoroscope's calibration in a motion-capture lab); logs bad parameters.
+  void publishLabTransform();
   void onWrench(const geometry_msgs::WrenchStamped::ConstPtr& wrench);
   // The compressive force (N) measured near `stamp`, or 0 if none is recent enough.
   double compressiveForceAt(const ros::Time& stamp);
@@ -108,6 +114,7 @@ class TrackerNode {
   std::vector<ros::Publisher> pose_publishers_;  // ~<bone>/pose, with covariance
   diagnostic_updater::Updater diagnostics_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
+  tf2_ros::StaticTransformBroadcaster static_tf_broadcaster_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   ros::ServiceServer reinitialize_service_;

@@ -35,6 +35,10 @@ bool kinematicsMessage(const ros::Time& stamp, const registration::Registrar& re
                        std::size_t joint, const registration::TrackedFrame& tracked,
                        double compressive_force_n, bool loaded, JointKinematics* message);
 
+// A joint's coordinates as text for an rviz label: name and status, then the angles in degrees
+// and the translations in millimetres, named as in the message.
+std::string kinematicsLabel(const JointKinematics& kinematics);
+
 TrackingStatus statusMessage(const std_msgs::Header& header,
                              const registration::Registrar& registrar,
                              const registration::TrackedFrame& tracked,
