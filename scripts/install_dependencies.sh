@@ -14,6 +14,7 @@ packages=(
   libeigen3-dev libopencv-dev libfcl-dev libceres-dev libassimp-dev libyaml-cpp-dev
   libboost-program-options-dev
   rviz xvfb xauth scrot
+  python3-rosservice python3-std-msgs python3-geometry-msgs
 )
 
 sudo_cmd=()

@@ -123,6 +123,19 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   frame.poses = frame.result.poses;
   frame.status = classifyBones(frame.result, registrar_->settings().quality);
+  const bool any_lost =
+      std::find(frame.status.begin(), frame.status.end(), "lost") != frame.status.end();
+  if (any_lost && search_) {
+    // Search this very frame (seeded by the last good poses) rather than give it up: e.g. a
+    // crude first-frame guess, or a jump the prediction missed. Blank or unusable frames find
+    // nothing and stay lost; the next frames are then searched.
+    try {
+      TrackedFrame searched = searchAndReset(views);
+      searched.solve_seconds += frame.solve_seconds;
+      return searched;
+    } catch (const InputError&) {
+    }
+  }
   accept(&frame);
   return frame;
 }

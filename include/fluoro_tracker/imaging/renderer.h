@@ -36,8 +36,8 @@ class Renderer {
   static cv::Mat pathLength(const geometry::XrayCamera& camera, const geometry::Mesh& mesh,
                             const geometry::Pose& camera_from_mesh);
 
-  // Silhouette mask (CV_8U, 255 where the ray crosses the mesh): the path-length sum without
-  // the per-pixel ray-length scaling, which does not change its sign.
+  // Silhouette mask (CV_8U, 255 where the ray crosses the mesh): the union of the front-facing
+  // triangles' projections (every ray that meets a closed mesh enters through one).
   static cv::Mat coverage(const geometry::XrayCamera& camera, const geometry::Mesh& mesh,
                           const geometry::Pose& camera_from_mesh);
 

@@ -25,8 +25,10 @@ struct TrackedFrame {
 // constant-velocity prediction of the last two good frames, and its quality classified
 // (classifyBones). A lost bone keeps its last good pose (the tracker never reports a jump its
 // own quality rejects) and the prediction restarts from it. With a PoseSearch, the tracker
-// also starts without poses (the first frame is searched) and recovers: after a lost frame,
-// each following frame is searched, seeded by the last good poses, until no bone is lost.
+// also starts without poses (the first frame is searched) and recovers: a frame whose
+// registration loses a bone is searched at once, seeded by the last good poses (so a crude
+// first-frame guess costs no frame); if that finds nothing, each following frame is searched
+// until no bone is lost.
 // ROS-free: used by track_bag and the tracking node.
 class Tracker {
  public:

@@ -1,6 +1,7 @@
 #include "fluoro_tracker/imaging/renderer.h"
 
 #include "../test_support.h"
+#include "fluoro_tracker/sim/implant_models.h"
 #include "fluoro_tracker/sim/mesh_builder.h"
 
 using namespace fluoro_tracker;
@@ -129,4 +130,25 @@ TEST(Renderer, MeshBehindTheSourceIsAnError) {
                                          geometry::makePose(Eigen::Matrix3d::Identity(),
                                                             Eigen::Vector3d(0.0, 0.0, -0.5))),
                     "behind the X-ray source");
+}
+
+// The silhouette mask (front faces filled) covers exactly the pixels whose rays cross the mesh:
+// the same pixels as a positive path length, on a non-convex part (a simulated femoral
+// component, whose box cuts and condyles overlap in projection) at an oblique pose.
+TEST(Renderer, CoverageIsWherePathLengthIsPositive) {
+  const geometry::Mesh femur = sim::makeKneeImplants().femoral_component;
+  const XrayCamera camera(320, 320, 2500.0, 2500.0, 160.0, 160.0);
+  Pose pose = geometry::makePose(
+      geometry::rotationX(0.4) * geometry::rotationY(-0.7) * geometry::rotationZ(0.2),
+      Eigen::Vector3d(0.002, -0.003, 1.0));
+  const cv::Mat mask = Renderer::coverage(camera, femur, pose);
+  const cv::Mat lengths = Renderer::pathLength(camera, femur, pose);
+  const cv::Mat crossed = lengths > 1e-7;
+  ASSERT_EQ(mask.type(), CV_8U);
+  const int covered = cv::countNonZero(mask);
+  EXPECT_GT(covered, 5000);
+  cv::Mat differ;
+  cv::bitwise_xor(mask, crossed, differ);
+  // Only samples on a silhouette rim seen exactly edge-on may disagree.
+  EXPECT_LE(cv::countNonZero(differ), covered / 1000) << cv::countNonZero(differ) << " pixels";
 }

@@ -129,3 +129,39 @@ TEST(Tracker, StartsWithoutPosesAndRecoversAfterABlankFrame) {
   }
   EXPECT_GE(back_at, 3) << "tracking did not come back within 3 frames of the blank one";
 }
+
+// A crude first-frame guess (the chapter 4 scale: centimetres along the beam, millimetres and
+// degrees across it) that registration alone loses is searched on that same frame, so the
+// first frame is not given up.
+TEST(Tracker, SearchesALostFrameAtOnce) {
+  const Trial trial;
+  const auto registrar = test_support::simulatedKneeRegistrar(trial.simulator);
+  const auto search = std::make_shared<registration::PoseSearch>(registrar);
+  std::mt19937_64 rng(5);
+  const auto frame0 = trial.simulator.render(0, &rng);
+  const Pose camera_from_fixed = trial.simulator.views()[0].camera.worldFromCamera().inverse();
+  const Eigen::Matrix3d to_fixed = camera_from_fixed.linear().transpose();
+  Pose femur = frame0.femur;
+  femur.translation() += to_fixed * Eigen::Vector3d(0.003, -0.003, 0.020);
+  Pose tibia = frame0.tibia;
+  tibia.translation() += to_fixed * Eigen::Vector3d(-0.003, 0.003, -0.045);
+  tibia.linear() = tibia.linear() * geometry::rotationY(geometry::degToRad(10.0));
+  const std::vector<Pose> crude = {femur, tibia};
+
+  registration::Tracker without_search(registrar, crude);
+  const registration::TrackedFrame given_up = without_search.track(trial.views(frame0));
+  ASSERT_NE(given_up.status, (std::vector<std::string>{"ok", "ok"}))
+      << "the crude guess must defeat registration alone for this test";
+
+  registration::Tracker tracker(registrar, crude, search);
+  const registration::TrackedFrame tracked = tracker.track(trial.views(frame0));
+  EXPECT_TRUE(tracked.searched);
+  EXPECT_EQ(tracked.status, (std::vector<std::string>{"ok", "ok"}));
+  const std::vector<Pose> truth = {frame0.femur, frame0.tibia};
+  for (int b = 0; b < 2; ++b) {
+    EXPECT_TRUE(registration::meetsSuccessCriterion(
+        registration::poseError(tracked.poses[b], truth[b], camera_from_fixed)))
+        << "bone " << b;
+  }
+  EXPECT_FALSE(tracker.recovering());
+}
