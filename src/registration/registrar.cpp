@@ -227,21 +227,38 @@ void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& 
 }
 
 // The image support of a bone at its final pose: its contour samples in every view's map, and
-// how many of them lie within `inlier_px` (full-resolution pixels) of an image edge.
+// how many of them lie within `inlier_px` (full-resolution pixels) of an image edge. The samples
+// are the model points of the last contour extracted per view (`model_points[v]`; the final
+// step is small, so the rim is the same), projected at the final pose; a view without them
+// has its contour extracted afresh.
 BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geometry::Pose& pose,
-                         const std::vector<imaging::EdgeMap>& maps, double inlier_px) {
+                         const std::vector<imaging::EdgeMap>& maps,
+                         const std::vector<std::vector<Eigen::Vector3d>>& model_points,
+                         double inlier_px) {
   BoneQuality quality;
   int inliers = 0;
   double squared = 0.0;
-  for (const auto& map : maps) {
+  for (std::size_t v = 0; v < maps.size(); ++v) {
+    const imaging::EdgeMap& map = maps[v];
     const geometry::XrayCamera& camera = map.camera();
-    const auto contour = silhouette.contour(camera, camera.worldFromCamera().inverse() * pose, 1.0);
-    for (const auto& c : contour) {
+    const geometry::Pose camera_from_mesh = camera.worldFromCamera().inverse() * pose;
+    std::vector<Eigen::Vector2d> pixels;
+    if (v < model_points.size() && !model_points[v].empty()) {
+      for (const Eigen::Vector3d& m : model_points[v]) {
+        Eigen::Vector2d pixel;
+        if (camera.project(camera_from_mesh * m, &pixel)) pixels.push_back(pixel);
+      }
+    } else {
+      for (const auto& c : silhouette.contour(camera, camera_from_mesh, 1.0)) {
+        pixels.push_back(c.pixel);
+      }
+    }
+    for (const Eigen::Vector2d& pixel : pixels) {
       ++quality.contour_points;
       double d = 0.0;
       double du = 0.0;
       double dv = 0.0;
-      if (!map.sample(c.pixel.x(), c.pixel.y(), &d, &du, &dv)) continue;
+      if (!map.sample(pixel.x(), pixel.y(), &d, &du, &dv)) continue;
       d = std::abs(d) / map.scale();
       if (d <= inlier_px) {
         ++inliers;
@@ -371,6 +388,9 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
   RegistrationResult result;
   result.poses = initial_poses;
   result.contour_points.assign(bones_.size(), 0);
+  // Per bone and view, the model points of the contour last extracted at the finest scale.
+  std::vector<std::vector<std::vector<Eigen::Vector3d>>> finest_model_points(
+      bones_.size(), std::vector<std::vector<Eigen::Vector3d>>(views.size()));
   result.diverged.assign(bones_.size(), false);
   // Edge offsets at the current scale's pixels, per bone and view; carried across outer
   // iterations and scales (converted), as they describe the image, not the step.
@@ -418,6 +438,11 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
             const geometry::Pose camera_from_fixed = camera.worldFromCamera().inverse();
             const auto contour = bones_[b].silhouette->contour(camera, camera_from_fixed * pose,
                                                                settings_.contour_spacing_px);
+            if (finest) {
+              auto& kept = finest_model_points[b][v];
+              kept.clear();
+              for (const auto& c : contour) kept.push_back(c.model_point);
+            }
             if (contour.empty()) continue;
             std::vector<Eigen::Vector3d> points;
             std::vector<Eigen::Vector2d> offset_directions;
@@ -561,6 +586,7 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
   }
   for (std::size_t b = 0; b < bones_.size(); ++b) {
     result.quality.push_back(imageQuality(*bones_[b].silhouette, result.poses[b], maps,
+                                          finest_model_points[b],
                                           settings_.quality.inlier_distance_px));
     if (b < result.covariance_valid.size() && result.covariance_valid[b]) {
       addCovarianceQuality(result.covariances[b], result.poses[b], views.front().camera,
