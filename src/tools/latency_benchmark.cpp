@@ -83,6 +83,7 @@ int main(int argc, char** argv) {
 
   std::mutex mutex;
   std::map<ros::Time, ros::WallTime> published;  // image stamp -> publish time
+  std::vector<ros::Time> stamps;                 // in publishing order
   std::map<ros::Time, double> latency_ms;        // image stamp -> first tf arrival
   std::uint32_t dropped = 0;
   std::size_t statuses = 0;
@@ -127,6 +128,7 @@ int main(int argc, char** argv) {
     {
       std::lock_guard<std::mutex> lock(mutex);
       published[stamp] = now;
+      stamps.push_back(stamp);
     }
     publisher.publish(images[i], infos[i]);
     rate.sleep();
@@ -136,12 +138,28 @@ int main(int argc, char** argv) {
   std::lock_guard<std::mutex> lock(mutex);
   std::vector<double> values;
   for (const auto& entry : latency_ms) values.push_back(entry.second);
+  std::string unanswered;
+  std::string slow;
+  for (std::size_t i = 0; i < stamps.size(); ++i) {
+    const auto it = latency_ms.find(stamps[i]);
+    if (it == latency_ms.end()) {
+      unanswered += " " + std::to_string(i);
+    } else if (it->second > 1e3 / rate_hz) {
+      slow += " " + std::to_string(i);
+    }
+  }
   std::cout << std::fixed << std::setprecision(1) << "latency_benchmark: " << images.size()
             << " frames published at " << rate_hz << " Hz; tf received for " << values.size()
             << "; node statuses " << statuses << ", frames dropped (node's count) " << dropped
             << "\nlatency_benchmark: image publish -> tf: median " << percentile(values, 0.5)
             << " ms, p95 " << percentile(values, 0.95) << " ms, max "
             << (values.empty() ? 0.0 : *std::max_element(values.begin(), values.end())) << " ms\n";
+  if (!unanswered.empty())
+    std::cout << "latency_benchmark: frames without tf:" << unanswered << "\n";
+  if (!slow.empty()) {
+    std::cout << "latency_benchmark: frames answered after more than one frame period:" << slow
+              << "\n";
+  }
   ros::shutdown();
   return values.empty() ? 1 : 0;
 }
