@@ -55,6 +55,7 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   kinematics_publisher_ = private_nh_.advertise<JointKinematics>("kinematics", 10);
   status_publisher_ = private_nh_.advertise<TrackingStatus>("status", 10);
   marker_publisher_ = private_nh_.advertise<visualization_msgs::MarkerArray>("markers", 2);
+  play_bag_progress_publisher_ = private_nh_.advertise<PlayBagProgress>("play_bag_progress", 10);
   for (const auto& bone : config_.bones) {
     pose_publishers_.push_back(
         private_nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>(bone.name + "/pose", 10));
@@ -471,6 +472,16 @@ bool TrackerNode::onPlayBag(PlayBag::Request& request, PlayBag::Response& respon
     std::vector<io::KinematicsRecord> kinematics;
     std::uint32_t frames = 0;
     std::uint32_t tracked_frames = 0;
+    PlayBagProgress progress;
+    progress.bag_path = request.bag_path;
+    progress.frames_expected = static_cast<std::uint32_t>(reader.expectedFrames());
+    const auto publishProgress = [&](double stamp_s, bool done) {
+      if (stamp_s > 0.0) progress.header.stamp.fromSec(stamp_s);
+      progress.frames_read = frames;
+      progress.frames_tracked = tracked_frames;
+      progress.done = done;
+      play_bag_progress_publisher_.publish(progress);
+    };
     reader.read(
         [&](const BagFrame& frame) {
           ++frames;
@@ -483,6 +494,7 @@ bool TrackerNode::onPlayBag(PlayBag::Request& request, PlayBag::Response& respon
             tracked = tracker.track(views);
           } catch (const InputError& e) {
             ROS_WARN("tracker_node: play_bag frame %d not tracked: %s", frame.index, e.what());
+            publishProgress(frame.stamp_s, false);
             return;
           }
           ++tracked_frames;
@@ -500,12 +512,17 @@ bool TrackerNode::onPlayBag(PlayBag::Request& request, PlayBag::Response& respon
                                   jointCoordinates(*registrar_, j, tracked),
                                   jointStatus(*registrar_, j, tracked)});
           }
-          if (frames % 50 == 0) ROS_INFO("tracker_node: play_bag frame %u", frames);
+          if (frames % 50 == 0) {
+            ROS_INFO("tracker_node: play_bag frame %u of %u", frames, progress.frames_expected);
+          }
+          publishProgress(frame.stamp_s, false);
         },
-        [&](int index, double, const std::string& reason) {
+        [&](int index, double stamp_s, const std::string& reason) {
           ++frames;
           ROS_WARN("tracker_node: play_bag skipped frame %d: %s", index, reason.c_str());
+          publishProgress(stamp_s, false);
         });
+    publishProgress(0.0, true);
     if (result_bag) {
       result_bag->copyInput(request.bag_path);
       result_bag->close();

@@ -16,6 +16,7 @@
 #include "../unit/test_support.h"
 #include "fluoro_tracker/JointKinematics.h"
 #include "fluoro_tracker/PlayBag.h"
+#include "fluoro_tracker/PlayBagProgress.h"
 #include "fluoro_tracker/Reinitialize.h"
 #include "fluoro_tracker/TrackingStatus.h"
 #include "fluoro_tracker/io/poses_csv.h"
@@ -225,6 +226,18 @@ TEST(TrackerNode, ServicesAnswerBadRequestsAndWork) {
   ASSERT_TRUE(ros::service::call("/tracker_node/play_bag", play));
   EXPECT_FALSE(play.response.success);
   EXPECT_NE(play.response.message.find("/nonexistent/trial.bag"), std::string::npos);
+  // Progress: one message per frame, then one with done set.
+  std::mutex progress_mutex;
+  std::vector<PlayBagProgress> progress;
+  ros::NodeHandle nh;
+  auto progress_sub = nh.subscribe<PlayBagProgress>(
+      "/tracker_node/play_bag_progress", 200, [&](const PlayBagProgress::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        progress.push_back(*m);
+      });
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  ros::WallDuration(0.5).sleep();  // the subscription connects
   test_support::TempDir dir;
   play.request.bag_path = param("bag");
   play.request.poses_csv_path = dir.file("poses.csv");
@@ -233,6 +246,24 @@ TEST(TrackerNode, ServicesAnswerBadRequestsAndWork) {
   EXPECT_TRUE(play.response.success) << play.response.message;
   EXPECT_EQ(play.response.frames, 90u);
   EXPECT_EQ(play.response.frames_tracked, 90u);
+  const ros::WallTime progress_deadline = ros::WallTime::now() + ros::WallDuration(5.0);
+  while (ros::WallTime::now() < progress_deadline) {
+    {
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      if (!progress.empty() && progress.back().done) break;
+    }
+    ros::WallDuration(0.05).sleep();
+  }
+  {
+    std::lock_guard<std::mutex> lock(progress_mutex);
+    ASSERT_FALSE(progress.empty()) << "no play_bag progress was published";
+    EXPECT_TRUE(progress.back().done);
+    EXPECT_EQ(progress.back().frames_read, 90u);
+    EXPECT_EQ(progress.back().frames_tracked, 90u);
+    EXPECT_EQ(progress.back().frames_expected, 90u);
+    EXPECT_EQ(progress.back().bag_path, param("bag"));
+    EXPECT_GE(progress.size(), 91u);  // every frame, then done
+  }
   const auto poses = io::readPosesCsv(dir.file("poses.csv"));
   ASSERT_EQ(poses.size(), truth.size());
   std::size_t near = 0;

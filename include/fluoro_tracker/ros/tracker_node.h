@@ -25,6 +25,7 @@
 
 #include "fluoro_tracker/JointKinematics.h"
 #include "fluoro_tracker/PlayBag.h"
+#include "fluoro_tracker/PlayBagProgress.h"
 #include "fluoro_tracker/Reinitialize.h"
 #include "fluoro_tracker/io/trial_config.h"
 #include "fluoro_tracker/io/trial_models.h"
@@ -111,6 +112,7 @@ class TrackerNode {
   ros::Publisher kinematics_publisher_;
   ros::Publisher status_publisher_;
   ros::Publisher marker_publisher_;
+  ros::Publisher play_bag_progress_publisher_;
   std::vector<ros::Publisher> pose_publishers_;  // ~<bone>/pose, with covariance
   diagnostic_updater::Updater diagnostics_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
