@@ -33,5 +33,7 @@ echo "demo: tracked poses in $out/poses.csv (and $out/poses_automatic.csv from n
 echo "      contact per frame in $out/contact.csv;"
 echo "      contour overlays in $out/overlay/ (e.g. overlay_0030.png,"
 echo "      deepest flexion); simulated frames in $out/preview.png."
-echo "demo: inspect the bag with 'rosbag info $out/trial.bag', or replay it on a master with"
-echo "      'roslaunch fluoro_tracker play_trial.launch bag:=\$PWD/$out/trial.bag'."
+out_abs=$(cd "$out" && pwd)
+echo "demo: inspect the bag with 'rosbag info $out/trial.bag', or watch the tracking node on it"
+echo "      in rviz (after 'source build/devel/setup.bash'):"
+echo "      'roslaunch fluoro_tracker demo.launch trial:=$out_abs'."
