@@ -9,6 +9,7 @@
 
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/yaml_file.h"
+#include "fluoro_tracker/kinematics/joint_types.h"
 
 namespace fluoro_tracker {
 namespace io {
@@ -360,6 +361,17 @@ TrialConfig loadTrialConfig(const std::string& path) {
       joint.parent = required<std::string>(j, "parent", context);
       joint.child = required<std::string>(j, "child", context);
       if (j["type"]) joint.type = required<std::string>(j, "type", context);
+      kinematics::JointType type = kinematics::JointType::kKnee;
+      try {
+        type = kinematics::jointTypeFromName(joint.type);
+      } catch (const InputError& e) {
+        throw InputError(context + ": " + e.what());
+      }
+      if (type != kinematics::JointType::kKnee && j["ligaments"]) {
+        throw InputError(context +
+                         ": ligament springs are available for knee joints only (their "
+                         "bounds are in the knee's coordinates)");
+      }
       for (const auto& bone : {joint.parent, joint.child}) {
         if (!names.count(bone)) {
           throw InputError(context + ": bone '" + bone + "' is not listed under 'bones'");

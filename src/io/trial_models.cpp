@@ -26,11 +26,12 @@ TrialModels loadTrialModels(const TrialConfig& config) {
     return -1;
   };
   for (const auto& joint : config.joints) {
-    if (joint.type != "knee") {
-      throw InputError("joint '" + joint.name + "': type '" + joint.type +
-                       "' is not supported yet (knee only)");
-    }
     registration::JointModel model;
+    try {
+      model.type = kinematics::jointTypeFromName(joint.type);
+    } catch (const InputError& e) {
+      throw InputError("joint '" + joint.name + "': " + e.what());
+    }
     model.name = joint.name;
     model.parent = index(joint.parent);
     model.child = index(joint.child);

@@ -1,5 +1,6 @@
 #include "fluoro_tracker/ros/tracking_messages.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -29,9 +30,10 @@ kinematics::KneeCoordinates jointCoordinates(const registration::Registrar& regi
                                              std::size_t joint,
                                              const registration::TrackedFrame& tracked) {
   const auto& model = registrar.joints()[joint];
-  return joint < tracked.result.joints.size()
-             ? tracked.result.joints[joint].coordinates
-             : model.coordinates(tracked.poses[model.parent], tracked.poses[model.child]);
+  return kinematics::inJointConvention(
+      model.type, joint < tracked.result.joints.size()
+                      ? tracked.result.joints[joint].coordinates
+                      : model.coordinates(tracked.poses[model.parent], tracked.poses[model.child]));
 }
 
 std::string jointStatus(const registration::Registrar& registrar, std::size_t joint,
@@ -54,9 +56,11 @@ bool kinematicsMessage(const ros::Time& stamp, const registration::Registrar& re
   message->joint = model.name;
   message->parent = bones[model.parent].name;
   message->child = bones[model.child].name;
-  message->angle_names = {"flexion", "adduction", "internal_rotation"};
+  const kinematics::JointCoordinateNames& names = kinematics::coordinateNames(model.type);
+  std::copy(names.angles.begin(), names.angles.end(), message->angle_names.begin());
   message->angles = {c.flexion_rad, c.adduction_rad, c.internal_rotation_rad};
-  message->translation_names = {"anterior", "superior", "lateral"};
+  std::copy(names.translations.begin(), names.translations.end(),
+            message->translation_names.begin());
   message->translations = {c.x_m, c.y_m, c.z_m};
   message->status = jointStatus(registrar, joint, tracked);
   message->compressive_force_n = compressive_force_n;

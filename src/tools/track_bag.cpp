@@ -207,10 +207,11 @@ int main(int argc, char** argv) {
             const auto& joint = registrar.joints()[j];
             // A frame whose solve failed has no joint results: its kinematics come from the
             // poses it reports.
-            const auto coordinates =
+            const auto coordinates = kinematics::inJointConvention(
+                joint.type,
                 j < result.joints.size()
                     ? result.joints[j].coordinates
-                    : joint.coordinates(result.poses[joint.parent], result.poses[joint.child]);
+                    : joint.coordinates(result.poses[joint.parent], result.poses[joint.child]));
             kinematics.push_back(
                 {frame.index, frame.stamp_s, joint.name, coordinates,
                  registration::combinedStatus(status[joint.parent], status[joint.child])});

@@ -11,7 +11,8 @@ namespace io {
 // One row of the public kinematics CSV (docs: interfaces.md), one per joint per frame:
 //   frame,stamp,joint,flexion_deg,adduction_deg,internal_rotation_deg,x_mm,y_mm,z_mm,status
 // The angles and translations are kinematics::KneeCoordinates (Grood & Suntay; see there for
-// the axes and signs); status is the worse of the two bones' (ok, suspect, lost).
+// the axes and signs), or for another joint type its own angles in the same columns
+// (kinematics::inJointConvention); status is the worse of the two bones' (ok, suspect, lost).
 struct KinematicsRecord {
   int frame = 0;
   double stamp = 0.0;

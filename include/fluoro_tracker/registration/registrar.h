@@ -13,6 +13,7 @@
 #include "fluoro_tracker/geometry/xray_camera.h"
 #include "fluoro_tracker/imaging/edge_map.h"
 #include "fluoro_tracker/imaging/silhouette.h"
+#include "fluoro_tracker/kinematics/joint_types.h"
 #include "fluoro_tracker/kinematics/knee_coordinates.h"
 #include "fluoro_tracker/registration/frame_quality.h"
 
@@ -108,6 +109,8 @@ struct JointModel {
   int parent = -1;
   int child = -1;
   kinematics::Side side = kinematics::Side::kRight;
+  // Names and signs of the reported coordinates (the geometry is the knee's for every type).
+  kinematics::JointType type = kinematics::JointType::kKnee;
   // Each bone's anatomical frame in its mesh frame (identity: the mesh frame is anatomical).
   geometry::Pose parent_anatomical = geometry::Pose::Identity();
   geometry::Pose child_anatomical = geometry::Pose::Identity();

@@ -21,8 +21,8 @@ std::vector<geometry_msgs::TransformStamped> boneTransforms(
     const ros::Time& stamp, const std::string& fixed_frame,
     const registration::Registrar& registrar, const registration::TrackedFrame& tracked);
 
-// A joint's coordinates at a tracked frame: from the registration when it ran, else computed
-// from the poses reported.
+// A joint's coordinates at a tracked frame, in its type's convention (kinematics::JointType):
+// from the registration when it ran, else computed from the poses reported.
 kinematics::KneeCoordinates jointCoordinates(const registration::Registrar& registrar,
                                              std::size_t joint,
                                              const registration::TrackedFrame& tracked);

@@ -141,6 +141,27 @@ TEST(TrialConfig, ContactSectionIsCheckedAndMissingMeansDisabled) {
   EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("box.yaml")), "3 numbers");
 }
 
+TEST(TrialConfig, JointTypesAreCheckedAndOnlyKneesTakeLigaments) {
+  TempDir dir;
+  const std::string bones =
+      "bones:\n  - {name: tibia, mesh: t.stl}\n  - {name: talus, mesh: a.stl}\n";
+  test_support::writeText(dir.file("ankle.yaml"),
+                          bones +
+                              "joints:\n  - {name: ankle, parent: tibia, child: talus, "
+                              "type: ankle, side: left}\n");
+  EXPECT_EQ(io::loadTrialConfig(dir.file("ankle.yaml")).joints[0].type, "ankle");
+  test_support::writeText(dir.file("hip.yaml"),
+                          bones +
+                              "joints:\n  - {name: hip, parent: tibia, child: talus, "
+                              "type: hip}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("hip.yaml")), "joint type 'hip'");
+  test_support::writeText(dir.file("springs.yaml"),
+                          bones +
+                              "joints:\n  - {name: ankle, parent: tibia, child: talus, "
+                              "type: ankle, ligaments: {}}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("springs.yaml")), "knee joints only");
+}
+
 TEST(TrialConfig, BadYamlNamesFileKeyAndLine) {
   TempDir dir;
   EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("missing.yaml")), "does not exist");

@@ -57,7 +57,10 @@ TEST(TrialModels, BuildsImageModelsAndContactFromTheArticularMesh) {
 
   io::TrialConfig ankle = kneeTrial(dir, false);
   ankle.joints[0].type = "ankle";
-  EXPECT_THROW_WITH(io::loadTrialModels(ankle), "not supported yet");
+  EXPECT_EQ(io::loadTrialModels(ankle).joints[0].type, kinematics::JointType::kAnkle);
+  io::TrialConfig shoulder = kneeTrial(dir, false);
+  shoulder.joints[0].type = "glenohumeral";
+  EXPECT_THROW_WITH(io::loadTrialModels(shoulder), "glenohumeral");
 }
 
 TEST(TrialModels, AnOpenArticularSurfaceIsRejectedNamingTheFile) {
