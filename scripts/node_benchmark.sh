@@ -60,40 +60,6 @@ for (position, indent, orientation), (dx, dy, dz, turn_deg) in zip(poses, offset
 open(folder + "/crude_guess.yaml", "w").write(out)
 PY
 
-score() {
-  /usr/bin/python3 - "$1" "$2" <<'PY'
-import csv, math, sys
-def load(path):
-    rows = {}
-    for r in csv.DictReader(open(path)):
-        rows[(int(r["frame"]), r["bone"])] = ([float(r[k]) for k in ("x_m", "y_m", "z_m")],
-                                              [float(r[k]) for k in ("qx", "qy", "qz", "qw")])
-    return rows
-def multiply(a, b):
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
-estimate, truth = load(sys.argv[1]), load(sys.argv[2])
-frames = {}
-for (frame, bone), (t, q) in truth.items():
-    ok = (frame, bone) in estimate
-    if ok:
-        te, qe = estimate[(frame, bone)]
-        d = multiply((-q[0], -q[1], -q[2], q[3]), qe)  # truth^-1 * estimate, in the bone's axes
-        if d[3] < 0:
-            d = tuple(-v for v in d)
-        s = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
-        angle = 2.0 * math.atan2(s, d[3])
-        r = [0.0] * 3 if s < 1e-12 else [math.degrees(angle * v / s) for v in d[:3]]
-        in_plane_mm = 1e3 * math.hypot(te[0] - t[0], te[1] - t[1])  # fixed frame = optical
-        ok = in_plane_mm < 1.0 and abs(r[0]) < 2.0 and abs(r[2]) < 2.0 and abs(r[1]) < 3.0
-    frames[frame] = frames.get(frame, True) and ok
-print("%d/%d frames within 1 mm in-plane, 2 deg about X and Z, 3 deg about Y"
-      % (sum(frames.values()), len(frames)))
-PY
-}
-
 roscore > "$work/roscore.log" 2>&1 &
 master_pid=$!
 sleep 3
@@ -112,7 +78,8 @@ for guess in crude_guess no_guess; do
   label=${guess/crude_guess/a crude guess}; label=${label/no_guess/no guess}
   echo "node_benchmark: play_bag from $label: $tracked of $frames frames tracked in" \
     "$seconds s ($(/usr/bin/python3 -c "print('%.1f' % ($frames / $seconds))") frames/s);" \
-    "$(score "$work/$guess.csv" "$work/trial/ground_truth.csv")"
+    "$("$bin/score_poses" --poses "$work/$guess.csv" --truth "$work/trial/ground_truth.csv" |
+      sed 's/^score_poses: //; s/; RMS.*//')"
   rosnode kill /tracker_node > /dev/null 2>&1
   sleep 1
 done

@@ -32,15 +32,7 @@ namespace po = boost::program_options;
 using namespace fluoro_tracker;
 using geometry::Pose;
 
-namespace {
-
-struct Accuracy {
-  std::vector<Eigen::Matrix<double, 6, 1>> errors;  // per bone-frame: tx ty tz (mm), rx ry rz (deg)
-  int frames = 0;
-  int frames_within = 0;
-};
-
-}  // namespace
+namespace {}  // namespace
 
 int main(int argc, char** argv) {
   po::options_description options(
@@ -131,7 +123,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> missing_guesses;
     // Per bone: frame -> pose in the first view's optical frame (for --jts-dir).
     std::vector<std::map<int, Pose>> camera_poses(bones.size());
-    Accuracy accuracy;
+    registration::AccuracyTally accuracy;
     int tracked = 0, skipped = 0, flagged = 0;
     const bool interactive = isatty(STDOUT_FILENO);
     const auto start = std::chrono::steady_clock::now();
@@ -228,19 +220,14 @@ int main(int argc, char** argv) {
 
           if (!truth.empty()) {
             const Pose camera_from_fixed = frame.cameras[0].worldFromCamera().inverse();
-            bool within = true;
+            std::vector<registration::PoseError> errors;
             for (std::size_t b = 0; b < bones.size(); ++b) {
               const auto it = truth.find({frame.index, bones[b].name});
               if (it == truth.end()) continue;
-              const registration::PoseError e =
-                  registration::poseError(result.poses[b], it->second, camera_from_fixed);
-              Eigen::Matrix<double, 6, 1> dofs;
-              dofs << e.translation_mm, e.rotation_deg;
-              accuracy.errors.push_back(dofs);
-              within = within && registration::meetsSuccessCriterion(e);
+              errors.push_back(
+                  registration::poseError(result.poses[b], it->second, camera_from_fixed));
             }
-            ++accuracy.frames;
-            accuracy.frames_within += within ? 1 : 0;
+            if (!errors.empty()) accuracy.addFrame(errors);
           }
           if (!overlay_dir.empty() && frame.index % std::max(1, overlay_every) == 0) {
             char name[64];
@@ -287,16 +274,9 @@ int main(int argc, char** argv) {
               << skipped << " skipped, " << flagged << " flagged, " << std::fixed
               << std::setprecision(1) << (seconds > 0 ? tracked / seconds : 0.0)
               << " frames/s; poses in " << poses_path << "\n";
-    if (!accuracy.errors.empty()) {
-      Eigen::Matrix<double, 6, 1> rms = Eigen::Matrix<double, 6, 1>::Zero();
-      for (const auto& e : accuracy.errors) rms += e.cwiseProduct(e);
-      rms = (rms / accuracy.errors.size()).cwiseSqrt();
-      std::cout << std::setprecision(2) << "track_bag: accuracy against " << truth_path << ": "
-                << accuracy.frames_within << "/" << accuracy.frames
-                << " frames within 1 mm in-plane, 2 deg about X and Z, 3 deg about Y; RMS tx "
-                << rms[0] << " mm, ty " << rms[1] << " mm, tz (along the beam) " << rms[2]
-                << " mm, rx " << rms[3] << " deg, ry " << rms[4] << " deg, rz " << rms[5]
-                << " deg\n";
+    if (accuracy.frames() > 0) {
+      std::cout << "track_bag: accuracy against " << truth_path << ": " << accuracy.summary()
+                << "\n";
     }
     if (!missing_guesses.empty()) {
       std::cerr << "track_bag: error: " << missing_guesses.front();

@@ -1,5 +1,8 @@
 #pragma once
 
+#include <string>
+#include <vector>
+
 #include <Eigen/Core>
 
 #include "fluoro_tracker/geometry/pose.h"
@@ -30,6 +33,28 @@ constexpr SuccessCriterion kChapter4Criterion{1.5, 3.0, 5.0};
 
 bool meetsSuccessCriterion(const PoseError& error,
                            const SuccessCriterion& criterion = kChapter3Criterion);
+
+// Accuracy of tracked poses against reference poses: a frame succeeds when all its bones meet
+// the criterion; RMS per degree of freedom over every bone-frame.
+class AccuracyTally {
+ public:
+  explicit AccuracyTally(const SuccessCriterion& criterion = kChapter3Criterion)
+      : criterion_(criterion) {}
+  void addFrame(const std::vector<PoseError>& bone_errors);
+  int frames() const { return frames_; }
+  int framesWithin() const { return frames_within_; }
+  // tx, ty, tz (mm), rx, ry, rz (deg); zero before any bone-frame.
+  Eigen::Matrix<double, 6, 1> rms() const;
+  // "N/M frames within 1 mm in-plane, 2 deg about X and Z, 3 deg about Y; RMS tx ... deg".
+  std::string summary() const;
+
+ private:
+  SuccessCriterion criterion_;
+  int frames_ = 0;
+  int frames_within_ = 0;
+  int bone_frames_ = 0;
+  Eigen::Matrix<double, 6, 1> sum_squares_ = Eigen::Matrix<double, 6, 1>::Zero();
+};
 
 }  // namespace registration
 }  // namespace fluoro_tracker

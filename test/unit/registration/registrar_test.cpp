@@ -399,3 +399,20 @@ TEST(PoseError, MeasuresInTheViewAndAboutTheBoneAxesAndAppliesTheCriterion) {
   worse.translation_mm.x() = -1.1;
   EXPECT_FALSE(registration::meetsSuccessCriterion(worse));
 }
+
+// Frames succeed when every bone does; RMS is over bone-frames.
+TEST(PoseError, AccuracyTallyCountsFramesAndRms) {
+  registration::AccuracyTally tally;
+  registration::PoseError good{Eigen::Vector3d(0.5, -0.5, 3.0), Eigen::Vector3d(1.0, 2.0, -1.0)};
+  registration::PoseError off{Eigen::Vector3d(1.5, 0.0, 0.0), Eigen::Vector3d::Zero()};
+  tally.addFrame({good, good});
+  tally.addFrame({good, off});
+  EXPECT_EQ(tally.frames(), 2);
+  EXPECT_EQ(tally.framesWithin(), 1);
+  EXPECT_NEAR(tally.rms()[0], std::sqrt((3 * 0.25 + 2.25) / 4.0), 1e-12);
+  EXPECT_NEAR(tally.rms()[2], std::sqrt(3 * 9.0 / 4.0), 1e-12);
+  EXPECT_NE(tally.summary().find("1/2 frames within 1 mm"), std::string::npos) << tally.summary();
+  registration::AccuracyTally loose(registration::kChapter4Criterion);
+  loose.addFrame({good, off});
+  EXPECT_EQ(loose.framesWithin(), 1);
+}
