@@ -22,6 +22,7 @@
 #include <boost/program_options.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "command_line.h"
 #include "fluoro_tracker/constraints/articular_contact.h"
 #include "fluoro_tracker/imaging/projection_similarity.h"
 #include "fluoro_tracker/input_error.h"
@@ -436,16 +437,14 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
             const auto& q = result.quality[b];
             const auto joint = result.joints.empty() ? registration::JointQuality()
                                                      : result.joints.front().quality;
-            *quality_csv << c << "," << trial << "," << f << "," << b << ","
-                         << (registration::meetsSuccessCriterion(errors[b], tally.criterion) ? 1
-                                                                                             : 0)
-                         << "," << (success ? 1 : 0) << "," << q.contour_inlier_fraction << ","
-                         << q.contour_rms_px << "," << 1e3 * figures.max_depth_m << ","
-                         << joint.envelope_violation << ","
-                         << (q.out_of_plane_sd_m >= 0.0 ? 1e3 * q.out_of_plane_sd_m : -1.0) << ","
-                         << (q.max_rotation_sd_rad >= 0.0 ? geometry::radToDeg(q.max_rotation_sd_rad)
-                                                          : -1.0)
-                         << "," << status[b] << "\n";
+            *quality_csv
+                << c << "," << trial << "," << f << "," << b << ","
+                << (registration::meetsSuccessCriterion(errors[b], tally.criterion) ? 1 : 0) << ","
+                << (success ? 1 : 0) << "," << q.contour_inlier_fraction << "," << q.contour_rms_px
+                << "," << 1e3 * figures.max_depth_m << "," << joint.envelope_violation << ","
+                << (q.out_of_plane_sd_m >= 0.0 ? 1e3 * q.out_of_plane_sd_m : -1.0) << ","
+                << (q.max_rotation_sd_rad >= 0.0 ? geometry::radToDeg(q.max_rotation_sd_rad) : -1.0)
+                << "," << status[b] << "\n";
           }
         }
       }
@@ -649,16 +648,8 @@ int main(int argc, char** argv) {
       "contact-dead-band-mm", po::value(&contact.dead_band_mm)->default_value(contact.dead_band_mm),
       "penetration allowed without cost");
   po::variables_map vm;
-  try {
-    po::store(po::parse_command_line(argc, argv, options), vm);
-    po::notify(vm);
-  } catch (const po::error& e) {
-    std::cerr << "benchmark: " << e.what() << "\n" << options << "\n";
-    return 2;
-  }
-  if (vm.count("help")) {
-    std::cout << options << "\n";
-    return 0;
+  if (const auto exit_code = tools::parseCommandLine("benchmark", options, argc, argv, &vm)) {
+    return *exit_code;
   }
   try {
     if (protocol == "search") {

@@ -8,6 +8,7 @@
 
 #include <boost/program_options.hpp>
 
+#include "command_line.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/poses_csv.h"
 #include "fluoro_tracker/registration/pose_error.h"
@@ -27,16 +28,8 @@ int main(int argc, char** argv) {
       "criterion", po::value(&criterion_name)->default_value("chapter3"),
       "chapter3 (1 mm, 2/3 deg) or chapter4 (1.5 mm, 3/5 deg)");
   po::variables_map vm;
-  try {
-    po::store(po::parse_command_line(argc, argv, options), vm);
-    if (vm.count("help")) {
-      std::cout << options << "\n";
-      return 0;
-    }
-    po::notify(vm);
-  } catch (const po::error& e) {
-    std::cerr << "score_poses: " << e.what() << "\n" << options << "\n";
-    return 2;
+  if (const auto exit_code = tools::parseCommandLine("score_poses", options, argc, argv, &vm)) {
+    return *exit_code;
   }
   try {
     if (criterion_name != "chapter3" && criterion_name != "chapter4") {

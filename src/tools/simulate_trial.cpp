@@ -11,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "command_line.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/poses_csv.h"
 #include "fluoro_tracker/io/trial_config.h"
@@ -54,16 +55,8 @@ int main(int argc, char** argv) {
       "seed", po::value<std::uint64_t>(), "noise seed")("bit-depth", po::value<int>(), "8 or 16")(
       "implants-bright", po::bool_switch(), "render implants bright (inverted polarity)");
   po::variables_map vm;
-  try {
-    po::store(po::parse_command_line(argc, argv, options), vm);
-    po::notify(vm);
-  } catch (const po::error& e) {
-    std::cerr << "simulate_trial: " << e.what() << "\n" << options << "\n";
-    return 2;
-  }
-  if (vm.count("help")) {
-    std::cout << options << "\n";
-    return 0;
+  if (const auto exit_code = tools::parseCommandLine("simulate_trial", options, argc, argv, &vm)) {
+    return *exit_code;
   }
 
   try {

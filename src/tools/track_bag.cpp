@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "command_line.h"
 #include "fluoro_tracker/imaging/contour_overlay.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/jts_file.h"
@@ -65,16 +66,8 @@ int main(int argc, char** argv) {
       "after a lost frame, search the next frames automatically (seeded by the last good "
       "poses) until tracking is back");
   po::variables_map vm;
-  try {
-    po::store(po::parse_command_line(argc, argv, options), vm);
-    if (vm.count("help")) {
-      std::cout << options << "\n";
-      return 0;
-    }
-    po::notify(vm);
-  } catch (const po::error& e) {
-    std::cerr << "track_bag: " << e.what() << "\n" << options << "\n";
-    return 2;
+  if (const auto exit_code = tools::parseCommandLine("track_bag", options, argc, argv, &vm)) {
+    return *exit_code;
   }
 
   try {
