@@ -48,8 +48,9 @@ int main(int argc, char** argv) {
       "bag", po::value(&bag_path)->required(), "input bag")(
       "poses-csv", po::value(&poses_path)->required(), "output poses CSV")(
       "kinematics-csv", po::value(&kinematics_path),
-      "joint kinematics CSV (knee: Grood & Suntay; see README)")("out-bag", po::value(&out_bag),
-                                                                 "output bag (not available yet)")(
+      "joint kinematics CSV (knee: Grood & Suntay; see README)")(
+      "out-bag", po::value(&out_bag),
+      "output bag: the input plus /tf, kinematics and status at every image stamp")(
       "init-csv", po::value(&init_path),
       "per-frame starting poses (poses CSV); each frame on its own")(
       "image-topic", po::value(&image_topics)->multitoken(),
