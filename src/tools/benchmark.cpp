@@ -321,9 +321,11 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
                   const constraints::LigamentSettings& ligament_settings,
                   std::ostream* quality_csv) {
   if (quality_csv != nullptr) {
-    *quality_csv << "condition,trial,frame,bone,bone_success,frame_success,inlier_fraction,"
-                    "contour_rms_px,penetration_mm,envelope_violation,out_of_plane_sd_mm,"
-                    "rotation_sd_deg,status\n";
+    *quality_csv
+        << "condition,trial,frame,bone,bone_success,frame_success,inlier_fraction,"
+           "contour_rms_px,penetration_mm,envelope_violation,out_of_plane_sd_mm,"
+           "rotation_sd_deg,status,error_x_mm,error_y_mm,error_z_mm,error_rx_deg,error_ry_deg,"
+           "error_rz_deg\n";
   }
   std::vector<Tally> tallies(conditions.size());
   for (Tally& t : tallies) {
@@ -444,7 +446,10 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
                 << "," << 1e3 * figures.max_depth_m << "," << joint.envelope_violation << ","
                 << (q.out_of_plane_sd_m >= 0.0 ? 1e3 * q.out_of_plane_sd_m : -1.0) << ","
                 << (q.max_rotation_sd_rad >= 0.0 ? geometry::radToDeg(q.max_rotation_sd_rad) : -1.0)
-                << "," << status[b] << "\n";
+                << "," << status[b];
+            for (int i = 0; i < 3; ++i) *quality_csv << "," << errors[b].translation_mm[i];
+            for (int i = 0; i < 3; ++i) *quality_csv << "," << errors[b].rotation_deg[i];
+            *quality_csv << "\n";
           }
         }
       }
@@ -465,8 +470,24 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
   }
 }
 
+// The Kneel knee's ligament envelope. Its rotation bounds hold whatever the meshes' origins;
+// flexion is left free (these meshes' medial-lateral axes point the other way, so flexion comes
+// out negative), and there is no insert for contact.
+registration::JointModel kneelKnee(const constraints::LigamentSettings& ligaments) {
+  registration::JointModel knee;
+  knee.name = "knee";
+  knee.parent = 0;
+  knee.child = 1;
+  knee.ligaments = ligaments;
+  knee.ligaments.enabled = true;
+  knee.ligaments.bounds[0] = {-180.0, 180.0};
+  return knee;
+}
+
 void runKneel(const std::string& dir, int starts, std::uint64_t seed,
-              const registration::RegistrationSettings& settings, bool search) {
+              const registration::RegistrationSettings& settings, bool search,
+              const std::vector<Condition>& conditions,
+              const constraints::LigamentSettings& ligaments) {
   const auto calibration = io::readJointTrackCalibration(dir + "/calibration.txt");
   const geometry::Mesh femur = geometry::Mesh::load(dir + "/KR_right_7_fem.stl");
   const geometry::Mesh tibia = geometry::Mesh::load(dir + "/KR_right_6_tib.stl");
@@ -478,16 +499,10 @@ void runKneel(const std::string& dir, int starts, std::uint64_t seed,
   const std::vector<std::string> frames = {"0160", "0170", "0180"};
   if (search) {
     // No guess: automatic initialisation on each frame. The knee's envelope resolves mirror
-    // hypotheses: its rotation bounds hold whatever the meshes' origins; flexion is left free
-    // (these meshes' medial-lateral axes point the other way, so flexion comes out negative),
-    // and there is no insert for contact.
-    registration::JointModel knee;
-    knee.name = "knee";
-    knee.parent = 0;
-    knee.child = 1;
-    knee.ligaments.bounds[0] = {-180.0, 180.0};
+    // hypotheses.
     const auto search_registrar = std::make_shared<const registration::Registrar>(
-        registrar.bones(), settings, std::vector<registration::JointModel>{knee});
+        registrar.bones(), settings,
+        std::vector<registration::JointModel>{kneelKnee(constraints::LigamentSettings())});
     const registration::PoseSearch pose_search(search_registrar);
     std::cout << "real JointTrack Kneel frames, automatic initialisation (no guess):\n";
     int within = 0;
@@ -524,40 +539,52 @@ void runKneel(const std::string& dir, int starts, std::uint64_t seed,
               << frames.size() << "\n";
     return;
   }
-  std::mt19937_64 rng(seed);
-  std::cout << "real JointTrack Kneel frames, " << starts
-            << " perturbed start(s) per frame (+-2 mm in-plane, +-3 mm out-of-plane, +-3 deg):\n";
-  int within = 0;
-  int total = 0;
-  for (std::size_t f = 0; f < frames.size(); ++f) {
-    const cv::Mat image = cv::imread(dir + "/AT_K1_V1_" + frames[f] + ".tif", cv::IMREAD_UNCHANGED);
-    if (image.empty()) throw InputError("cannot read Kneel frame " + frames[f]);
-    const geometry::XrayCamera camera =
-        io::cameraFromJointTrack(calibration, image.cols, image.rows);
-    const std::vector<Pose> reference = {io::opticalFromJointTrack(*femur_poses[f]),
-                                         io::opticalFromJointTrack(*tibia_poses[f])};
-    for (int s = 0; s < starts; ++s) {
-      std::vector<Pose> start;
-      for (const Pose& r : reference)
-        start.push_back(perturb(r, Pose::Identity(), &rng, 2.0, 3.0, 3.0));
-      const auto result = registrar.solve({{image, camera}}, start);
-      std::cout << "  frame " << frames[f] << " start " << s << ":";
-      bool ok = true;
-      for (std::size_t b = 0; b < 2; ++b) {
-        const PoseError e = poseError(result.poses[b], reference[b], Pose::Identity());
-        const double in_plane = std::hypot(e.translation_mm.x(), e.translation_mm.y());
-        std::cout << std::fixed << std::setprecision(2) << (b == 0 ? " femur" : "  tibia")
-                  << " in-plane " << in_plane << " mm, out-of-plane " << e.translation_mm.z()
-                  << " mm, rotation " << e.rotation_deg.norm() << " deg;";
-        ok = ok && in_plane <= 1.0 && e.rotation_deg.norm() <= 2.0;
-      }
-      std::cout << "\n";
-      within += ok ? 1 : 0;
-      ++total;
+  for (const Condition& condition : conditions) {
+    if (condition.contact) {
+      std::cout << "real JointTrack Kneel frames, " << condition.name
+                << ": skipped (the Kneel data has no tibial insert mesh for contact)\n";
+      continue;
     }
+    std::vector<registration::JointModel> joints;
+    if (condition.ligaments) joints.push_back(kneelKnee(ligaments));
+    const registration::Registrar condition_registrar(registrar.bones(), settings, joints);
+    // The same starts for every condition.
+    std::mt19937_64 rng(seed);
+    std::cout << "real JointTrack Kneel frames, " << condition.name << ", " << starts
+              << " perturbed start(s) per frame (+-2 mm in-plane, +-3 mm out-of-plane, +-3 deg):\n";
+    int within = 0;
+    int total = 0;
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+      const cv::Mat image =
+          cv::imread(dir + "/AT_K1_V1_" + frames[f] + ".tif", cv::IMREAD_UNCHANGED);
+      if (image.empty()) throw InputError("cannot read Kneel frame " + frames[f]);
+      const geometry::XrayCamera camera =
+          io::cameraFromJointTrack(calibration, image.cols, image.rows);
+      const std::vector<Pose> reference = {io::opticalFromJointTrack(*femur_poses[f]),
+                                           io::opticalFromJointTrack(*tibia_poses[f])};
+      for (int s = 0; s < starts; ++s) {
+        std::vector<Pose> start;
+        for (const Pose& r : reference)
+          start.push_back(perturb(r, Pose::Identity(), &rng, 2.0, 3.0, 3.0));
+        const auto result = condition_registrar.solve({{image, camera}}, start);
+        std::cout << "  frame " << frames[f] << " start " << s << ":";
+        bool ok = true;
+        for (std::size_t b = 0; b < 2; ++b) {
+          const PoseError e = poseError(result.poses[b], reference[b], Pose::Identity());
+          const double in_plane = std::hypot(e.translation_mm.x(), e.translation_mm.y());
+          std::cout << std::fixed << std::setprecision(2) << (b == 0 ? " femur" : "  tibia")
+                    << " in-plane " << in_plane << " mm, out-of-plane " << e.translation_mm.z()
+                    << " mm, rotation " << e.rotation_deg.norm() << " deg;";
+          ok = ok && in_plane <= 1.0 && e.rotation_deg.norm() <= 2.0;
+        }
+        std::cout << "\n";
+        within += ok ? 1 : 0;
+        ++total;
+      }
+    }
+    std::cout << "  within 1 mm in-plane and 2 deg of the reference: " << within << "/" << total
+              << "\n";
   }
-  std::cout << "  within 1 mm in-plane and 2 deg of the reference: " << within << "/" << total
-            << "\n";
 }
 
 }  // namespace
@@ -644,7 +671,8 @@ int main(int argc, char** argv) {
       po::value(&settings.quality.suspect_rotation_sd_deg)->default_value(0.0),
       "status: suspect above this rotational standard deviation (needs --covariance)")(
       "quality-csv", po::value(&quality_csv_path),
-      "write every registration's quality figures and status per bone to this CSV")(
+      "write every registration's quality figures, status and errors (x, y in-plane and z along "
+      "the beam in mm; rotations about the bone's axes in deg) per bone to this CSV")(
       "contact-dead-band-mm", po::value(&contact.dead_band_mm)->default_value(contact.dead_band_mm),
       "penetration allowed without cost");
   po::variables_map vm;
@@ -707,7 +735,7 @@ int main(int argc, char** argv) {
                    quality_csv.is_open() ? &quality_csv : nullptr);
     }
     if (!kneel_dir.empty()) {
-      runKneel(kneel_dir, kneel_starts, seed, settings, perturbation.search);
+      runKneel(kneel_dir, kneel_starts, seed, settings, perturbation.search, conditions, ligaments);
     }
     return 0;
   } catch (const std::exception& e) {
