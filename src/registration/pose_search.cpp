@@ -49,7 +49,10 @@ std::optional<geometry::Pose> plausibleMatchPose(const imaging::SilhouetteLibrar
 }
 
 // The image's starting poses for one bone (camera frame): the best shape matches over all
-// regions, each with the pose its region's size and place imply.
+// regions, and each region's own best match, each with the pose its region's size and place
+// imply. A region of background (a bone end, soft tissue) can outmatch the implant's own region
+// for every one of the overall best; its own best match keeps the implant's region in the
+// search, and the screening against the image's edges then decides.
 std::vector<geometry::Pose> shapeMatchStarts(const imaging::SilhouetteLibrary& library,
                                              const std::vector<imaging::ImplantBlob>& blobs,
                                              const geometry::XrayCamera& camera,
@@ -57,21 +60,28 @@ std::vector<geometry::Pose> shapeMatchStarts(const imaging::SilhouetteLibrary& l
   const int count = settings.matches_per_bone;
   struct Start {
     double dissimilarity;
+    std::size_t blob;
     geometry::Pose pose;
   };
   std::vector<Start> starts;
-  for (const auto& blob : blobs) {
-    for (const auto& match : library.match(blob, count, settings.roll_step_deg)) {
-      if (const auto pose = plausibleMatchPose(library, match, blob, camera, settings)) {
-        starts.push_back({match.dissimilarity, *pose});
+  for (std::size_t b = 0; b < blobs.size(); ++b) {
+    for (const auto& match : library.match(blobs[b], count, settings.roll_step_deg)) {
+      if (const auto pose = plausibleMatchPose(library, match, blobs[b], camera, settings)) {
+        starts.push_back({match.dissimilarity, b, *pose});
       }
     }
   }
-  std::sort(starts.begin(), starts.end(),
-            [](const Start& a, const Start& b) { return a.dissimilarity < b.dissimilarity; });
+  std::stable_sort(starts.begin(), starts.end(), [](const Start& a, const Start& b) {
+    return a.dissimilarity < b.dissimilarity;
+  });
   std::vector<geometry::Pose> poses;
-  for (std::size_t k = 0; k < starts.size() && static_cast<int>(k) < count; ++k) {
-    poses.push_back(starts[k].pose);
+  std::vector<bool> region_started(blobs.size(), false);
+  for (std::size_t k = 0; k < starts.size(); ++k) {
+    // Sorted: a region's first start is its best match.
+    if (static_cast<int>(k) < count || !region_started[starts[k].blob]) {
+      poses.push_back(starts[k].pose);
+      region_started[starts[k].blob] = true;
+    }
   }
   return poses;
 }
