@@ -230,6 +230,11 @@ PoseSearch::PoseSearch(std::shared_ptr<const Registrar> registrar, PoseSearchSet
   refine.scales = settings_.refine_scales;
   refine.stages.clear();
   refine.compute_covariance = false;
+  // Hypotheses are screened and chosen by their contour's inlier support; local equalisation
+  // raises clutter edges everywhere, which lends wrong hypotheses support (real Kneel frame
+  // 0180: a tibial tray turned 28 deg about its stem won). The search works on the window
+  // alone; the final joint registration uses the trial's edge settings.
+  refine.edges.clahe = false;
   // Starts are several pixels off at the coarsest scale: a wider robust kernel keeps their
   // edges in the basin (the final joint registration uses the trial's own settings).
   refine.robust_scale_px = std::max(refine.robust_scale_px, settings_.refine_robust_scale_px);
@@ -273,8 +278,8 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
       imaging::findImplantBlobs(first.image, settings_.blobs);
   PoseSearchResult found;
   found.regions = static_cast<int>(blobs.size());
-  const imaging::EdgeMap coarse(first.image, first.camera, registrar_->settings().edges, cv::Rect(),
-                                settings_.screening_scale);
+  const imaging::EdgeMap coarse(first.image, first.camera, refiners_.front()->settings().edges,
+                                cv::Rect(), settings_.screening_scale);
 
   // Screens starts on the coarse edge map and refines the best few, one bone at a time.
   std::vector<std::vector<Hypothesis>> hypotheses(bones);

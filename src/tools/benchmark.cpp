@@ -632,6 +632,11 @@ int main(int argc, char** argv) {
       "Levenberg-Marquardt iterations per outer iteration")(
       "robust-px", po::value(&settings.robust_scale_px)->default_value(settings.robust_scale_px),
       "Cauchy scale of the contour distance, full-resolution pixels")(
+      "clahe", po::value(&settings.edges.clahe)->default_value(settings.edges.clahe),
+      "contrast-limited adaptive equalisation of each edge map's grey levels (true/false)")(
+      "clahe-clip-limit",
+      po::value(&settings.edges.clahe_clip_limit)->default_value(settings.edges.clahe_clip_limit),
+      "its contrast limit")(
       "reverse-weight",
       po::value(&settings.reverse_term_weight)->default_value(settings.reverse_term_weight),
       "weight of the edge-to-contour (reverse) term; 0: forward term only")(
