@@ -496,7 +496,25 @@ void runKneel(const std::string& dir, int starts, std::uint64_t seed,
   const auto registrar_ptr = std::make_shared<const registration::Registrar>(
       boneModels({&femur, &tibia}, {"femur", "tibia"}), settings);
   const registration::Registrar& registrar = *registrar_ptr;
-  const std::vector<std::string> frames = {"0160", "0170", "0180"};
+  // The three real frames, each with its camera and the lab's reference poses.
+  struct KneelFrame {
+    std::string name;
+    cv::Mat image;
+    geometry::XrayCamera camera;
+    std::vector<Pose> reference;
+  };
+  std::vector<KneelFrame> frames;
+  for (const std::string name : {"0160", "0170", "0180"}) {
+    const std::size_t f = frames.size();
+    KneelFrame frame;
+    frame.name = name;
+    frame.image = cv::imread(dir + "/AT_K1_V1_" + name + ".tif", cv::IMREAD_UNCHANGED);
+    if (frame.image.empty()) throw InputError("cannot read Kneel frame " + name);
+    frame.camera = io::cameraFromJointTrack(calibration, frame.image.cols, frame.image.rows);
+    frame.reference = {io::opticalFromJointTrack(*femur_poses[f]),
+                       io::opticalFromJointTrack(*tibia_poses[f])};
+    frames.push_back(frame);
+  }
   if (search) {
     // No guess: automatic initialisation on each frame. The knee's envelope resolves mirror
     // hypotheses.
@@ -506,21 +524,14 @@ void runKneel(const std::string& dir, int starts, std::uint64_t seed,
     const registration::PoseSearch pose_search(search_registrar);
     std::cout << "real JointTrack Kneel frames, automatic initialisation (no guess):\n";
     int within = 0;
-    for (std::size_t f = 0; f < frames.size(); ++f) {
-      const cv::Mat image =
-          cv::imread(dir + "/AT_K1_V1_" + frames[f] + ".tif", cv::IMREAD_UNCHANGED);
-      if (image.empty()) throw InputError("cannot read Kneel frame " + frames[f]);
-      const geometry::XrayCamera camera =
-          io::cameraFromJointTrack(calibration, image.cols, image.rows);
-      const std::vector<Pose> reference = {io::opticalFromJointTrack(*femur_poses[f]),
-                                           io::opticalFromJointTrack(*tibia_poses[f])};
-      std::cout << "  frame " << frames[f] << ":";
+    for (const KneelFrame& frame : frames) {
+      std::cout << "  frame " << frame.name << ":";
       bool ok = true;
       try {
-        const auto found = pose_search.search({{image, camera}});
+        const auto found = pose_search.search({{frame.image, frame.camera}});
         for (std::size_t b = 0; b < 2; ++b) {
           const PoseError e =
-              poseError(found.registration.poses[b], reference[b], Pose::Identity());
+              poseError(found.registration.poses[b], frame.reference[b], Pose::Identity());
           const double in_plane = std::hypot(e.translation_mm.x(), e.translation_mm.y());
           std::cout << std::fixed << std::setprecision(2) << (b == 0 ? " femur" : "  tibia")
                     << " in-plane " << in_plane << " mm, out-of-plane " << e.translation_mm.z()
@@ -554,23 +565,16 @@ void runKneel(const std::string& dir, int starts, std::uint64_t seed,
               << " perturbed start(s) per frame (+-2 mm in-plane, +-3 mm out-of-plane, +-3 deg):\n";
     int within = 0;
     int total = 0;
-    for (std::size_t f = 0; f < frames.size(); ++f) {
-      const cv::Mat image =
-          cv::imread(dir + "/AT_K1_V1_" + frames[f] + ".tif", cv::IMREAD_UNCHANGED);
-      if (image.empty()) throw InputError("cannot read Kneel frame " + frames[f]);
-      const geometry::XrayCamera camera =
-          io::cameraFromJointTrack(calibration, image.cols, image.rows);
-      const std::vector<Pose> reference = {io::opticalFromJointTrack(*femur_poses[f]),
-                                           io::opticalFromJointTrack(*tibia_poses[f])};
+    for (const KneelFrame& frame : frames) {
       for (int s = 0; s < starts; ++s) {
         std::vector<Pose> start;
-        for (const Pose& r : reference)
+        for (const Pose& r : frame.reference)
           start.push_back(perturb(r, Pose::Identity(), &rng, 2.0, 3.0, 3.0));
-        const auto result = condition_registrar.solve({{image, camera}}, start);
-        std::cout << "  frame " << frames[f] << " start " << s << ":";
+        const auto result = condition_registrar.solve({{frame.image, frame.camera}}, start);
+        std::cout << "  frame " << frame.name << " start " << s << ":";
         bool ok = true;
         for (std::size_t b = 0; b < 2; ++b) {
-          const PoseError e = poseError(result.poses[b], reference[b], Pose::Identity());
+          const PoseError e = poseError(result.poses[b], frame.reference[b], Pose::Identity());
           const double in_plane = std::hypot(e.translation_mm.x(), e.translation_mm.y());
           std::cout << std::fixed << std::setprecision(2) << (b == 0 ? " femur" : "  tibia")
                     << " in-plane " << in_plane << " mm, out-of-plane " << e.translation_mm.z()
