@@ -235,6 +235,7 @@ PoseSearch::PoseSearch(std::shared_ptr<const Registrar> registrar, PoseSearchSet
   // 0180: a tibial tray turned 28 deg about its stem won). The search works on the window
   // alone; the final joint registration uses the trial's edge settings.
   refine.edges.clahe = false;
+  search_edges_ = refine.edges;
   // Starts are several pixels off at the coarsest scale: a wider robust kernel keeps their
   // edges in the basin (the final joint registration uses the trial's own settings).
   refine.robust_scale_px = std::max(refine.robust_scale_px, settings_.refine_robust_scale_px);
@@ -278,8 +279,8 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
       imaging::findImplantBlobs(first.image, settings_.blobs);
   PoseSearchResult found;
   found.regions = static_cast<int>(blobs.size());
-  const imaging::EdgeMap coarse(first.image, first.camera, refiners_.front()->settings().edges,
-                                cv::Rect(), settings_.screening_scale);
+  const imaging::EdgeMap coarse(first.image, first.camera, search_edges_, cv::Rect(),
+                                settings_.screening_scale);
 
   // Screens starts on the coarse edge map and refines the best few, one bone at a time.
   std::vector<std::vector<Hypothesis>> hypotheses(bones);

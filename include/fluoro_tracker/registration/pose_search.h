@@ -82,6 +82,7 @@ class PoseSearch {
   PoseSearchSettings settings_;
   std::vector<std::unique_ptr<imaging::SilhouetteLibrary>> libraries_;  // per bone
   std::vector<std::unique_ptr<Registrar>> refiners_;                    // per bone, alone
+  imaging::EdgeMapSettings search_edges_;  // the refiners' edges, also for screening
   // Per joint: the child's pose in the parent's mesh frame across the envelope.
   std::vector<std::vector<geometry::Pose>> envelope_;
   struct JointLibrary {
