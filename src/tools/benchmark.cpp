@@ -493,9 +493,8 @@ void runKneel(const std::string& dir, int starts, std::uint64_t seed,
   const geometry::Mesh tibia = geometry::Mesh::load(dir + "/KR_right_6_tib.stl");
   const auto femur_poses = io::readJtsFile(dir + "/fem.jts");
   const auto tibia_poses = io::readJtsFile(dir + "/tib.jts");
-  const auto registrar_ptr = std::make_shared<const registration::Registrar>(
-      boneModels({&femur, &tibia}, {"femur", "tibia"}), settings);
-  const registration::Registrar& registrar = *registrar_ptr;
+  const std::vector<registration::BoneModel> bones =
+      boneModels({&femur, &tibia}, {"femur", "tibia"});
   // The three real frames, each with its camera and the lab's reference poses.
   struct KneelFrame {
     std::string name;
@@ -519,7 +518,7 @@ void runKneel(const std::string& dir, int starts, std::uint64_t seed,
     // No guess: automatic initialisation on each frame. The knee's envelope resolves mirror
     // hypotheses.
     const auto search_registrar = std::make_shared<const registration::Registrar>(
-        registrar.bones(), settings,
+        bones, settings,
         std::vector<registration::JointModel>{kneelKnee(constraints::LigamentSettings())});
     const registration::PoseSearch pose_search(search_registrar);
     std::cout << "real JointTrack Kneel frames, automatic initialisation (no guess):\n";
@@ -558,7 +557,7 @@ void runKneel(const std::string& dir, int starts, std::uint64_t seed,
     }
     std::vector<registration::JointModel> joints;
     if (condition.ligaments) joints.push_back(kneelKnee(ligaments));
-    const registration::Registrar condition_registrar(registrar.bones(), settings, joints);
+    const registration::Registrar condition_registrar(bones, settings, joints);
     // The same starts for every condition.
     std::mt19937_64 rng(seed);
     std::cout << "real JointTrack Kneel frames, " << condition.name << ", " << starts
