@@ -212,6 +212,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "stages",
                      "edges",
                      "compute_covariance",
+                     "mirror_check",
                      "quality",
                      "search"});
   section.read("compute_covariance", &r.compute_covariance);
@@ -260,6 +261,12 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
       r.stages.push_back(stage);
     }
   }
+  const YamlSection mirror = section.child("mirror_check");
+  mirror.allowOnly({"enabled", "cost_tolerance", "min_difference_deg", "outer_iterations"});
+  mirror.read("enabled", &r.mirror_check.enabled);
+  mirror.read("cost_tolerance", &r.mirror_check.cost_tolerance);
+  mirror.read("min_difference_deg", &r.mirror_check.min_difference_deg);
+  mirror.read("outer_iterations", &r.mirror_check.outer_iterations);
   const YamlSection edges = section.child("edges");
   edges.allowOnly({"window_low_percentile", "window_high_percentile", "clahe", "clahe_clip_limit",
                    "blur_sigma_px", "canny_low", "canny_high", "auto_high_fraction",

@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/registration/mirror_ambiguity.h"
 
 namespace fluoro_tracker {
 namespace registration {
@@ -17,16 +18,6 @@ struct Hypothesis {
   geometry::Pose pose;
   double support = 0.0;  // contour inlier fraction
 };
-
-// The pose of a bone mirrored through the plane across the beam (optical z) at its origin, for
-// an implant symmetric about its sagittal plane (mesh X-Y, the ISB frame's): the same silhouette
-// in orthographic projection, so the pose a single view cannot tell from the original.
-geometry::Pose mirroredAcrossBeam(const geometry::Pose& camera_from_mesh) {
-  const Eigen::Matrix3d flip = Eigen::Vector3d(1.0, 1.0, -1.0).asDiagonal();
-  geometry::Pose mirrored = camera_from_mesh;
-  mirrored.linear() = flip * camera_from_mesh.linear() * flip;
-  return mirrored;
-}
 
 bool isSameHypothesis(const geometry::Pose& a, const geometry::Pose& b) {
   return (a.translation() - b.translation()).norm() < 2e-3 &&

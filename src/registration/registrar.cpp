@@ -15,6 +15,7 @@
 #include "fluoro_tracker/registration/contour_distance_cost.h"
 #include "fluoro_tracker/registration/edge_to_contour_cost.h"
 #include "fluoro_tracker/registration/ligament_cost.h"
+#include "fluoro_tracker/registration/mirror_ambiguity.h"
 #include "fluoro_tracker/registration/pose_increment.h"
 
 namespace fluoro_tracker {
@@ -347,6 +348,12 @@ void RegistrationSettings::validate() const {
         throw InputError(name + ": image weight of '" + bone + "' must be >= 0");
     }
   }
+  if (!(mirror_check.cost_tolerance >= 0.0) || !(mirror_check.min_difference_deg >= 0.0) ||
+      mirror_check.outer_iterations < 1) {
+    throw InputError(
+        "registration: mirror_check needs cost_tolerance >= 0, min_difference_deg >= 0 and "
+        "outer_iterations >= 1");
+  }
   edges.validate();
   quality.validate();
 }
@@ -373,6 +380,46 @@ Registrar::Registrar(std::vector<BoneModel> bones, RegistrationSettings settings
 RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
                                     const std::vector<geometry::Pose>& initial_poses,
                                     const std::vector<bool>& loaded) const {
+  std::vector<imaging::EdgeMap> finest_maps;
+  RegistrationResult result = solveFrom(views, initial_poses, loaded, &finest_maps);
+  // A second view sees the mirror from another side: only single views are ambiguous.
+  if (!settings_.mirror_check.enabled || views.size() != 1) return result;
+  const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();
+  for (const JointModel& joint : joints_) {
+    if (result.diverged[joint.parent] || result.diverged[joint.child]) continue;
+    std::vector<geometry::Pose> starts = result.poses;
+    const geometry::Pose& child = result.poses[joint.child];
+    starts[joint.child] =
+        camera_from_fixed.inverse() * mirroredAcrossBeam(camera_from_fixed * child);
+    if (geometry::rotationAngleBetween(starts[joint.child].linear(), child.linear()) <
+        geometry::degToRad(settings_.mirror_check.min_difference_deg)) {
+      continue;
+    }
+    const auto deviation = [&](const std::vector<geometry::Pose>& poses) {
+      return neutralDeviation(joint.ligaments,
+                              joint.coordinates(poses[joint.parent], poses[joint.child]));
+    };
+    // The mirror differs from the solution in rotation only: the finest scale's maps serve.
+    RegistrationResult mirror = solveFrom(views, starts, loaded, &finest_maps);
+    const bool keep_mirror =
+        !mirror.diverged[joint.parent] && !mirror.diverged[joint.child] &&
+        mirror.final_cost <= (1.0 + settings_.mirror_check.cost_tolerance) * result.final_cost &&
+        deviation(mirror.poses) < deviation(result.poses);
+    const int evaluations = result.cost_evaluations + mirror.cost_evaluations;
+    const int solver_iterations = result.solver_iterations + mirror.solver_iterations;
+    const int outer_iterations = result.outer_iterations + mirror.outer_iterations;
+    if (keep_mirror) result = std::move(mirror);
+    result.cost_evaluations = evaluations;
+    result.solver_iterations = solver_iterations;
+    result.outer_iterations = outer_iterations;
+  }
+  return result;
+}
+
+RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
+                                        const std::vector<geometry::Pose>& initial_poses,
+                                        const std::vector<bool>& loaded,
+                                        std::vector<imaging::EdgeMap>* finest_maps) const {
   if (views.empty()) throw InputError("registration: no views");
   if (initial_poses.size() != bones_.size()) {
     throw InputError("registration: " + std::to_string(initial_poses.size()) + " pose(s) for " +
@@ -402,14 +449,21 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
   }
 
   const std::vector<RegistrationStage> schedule = settings_.schedule();
+  const bool reuse_maps = finest_maps != nullptr && !finest_maps->empty();
+  if (reuse_maps) previous_scale = settings_.scales.back();
   std::vector<imaging::EdgeMap> maps;  // of the current scale; the finest one at the end
-  for (std::size_t scale_index = 0; scale_index < settings_.scales.size(); ++scale_index) {
+  for (std::size_t scale_index = reuse_maps ? settings_.scales.size() - 1 : 0;
+       scale_index < settings_.scales.size(); ++scale_index) {
     const double scale = settings_.scales[scale_index];
     const bool finest = scale_index + 1 == settings_.scales.size();
-    maps.clear();
-    maps.reserve(views.size());
-    for (std::size_t v = 0; v < views.size(); ++v) {
-      maps.emplace_back(views[v].image, views[v].camera, settings_.edges, rois[v], scale);
+    if (reuse_maps) {
+      maps = *finest_maps;
+    } else {
+      maps.clear();
+      maps.reserve(views.size());
+      for (std::size_t v = 0; v < views.size(); ++v) {
+        maps.emplace_back(views[v].image, views[v].camera, settings_.edges, rois[v], scale);
+      }
     }
     const double robust_scale = settings_.robust_scale_px * scale;
     // Offsets are in pixels of the map's scale.
@@ -420,7 +474,11 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
 
     for (std::size_t stage_index = 0; stage_index < (finest ? schedule.size() : 1); ++stage_index) {
       const RegistrationStage& stage = schedule[stage_index];
-      for (int outer = 0; outer < stage.outer_iterations; ++outer) {
+      // A mirror check's solve starts converged but for the mirrored rotation.
+      const int outer_iterations =
+          reuse_maps ? std::min(stage.outer_iterations, settings_.mirror_check.outer_iterations)
+                     : stage.outer_iterations;
+      for (int outer = 0; outer < outer_iterations; ++outer) {
         ++result.outer_iterations;
         std::vector<std::array<double, 6>> increments(bones_.size(), std::array<double, 6>{});
         std::vector<Eigen::Vector3d> centres(bones_.size());
@@ -593,6 +651,7 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
                            &result.quality.back());
     }
   }
+  if (finest_maps != nullptr && !reuse_maps) *finest_maps = std::move(maps);
   return result;
 }
 

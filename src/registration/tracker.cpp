@@ -25,6 +25,13 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
                        "' is not a finite rigid transform");
     }
   }
+  continuing_registrar_ = registrar_;
+  if (registrar_->settings().mirror_check.enabled) {
+    RegistrationSettings settings = registrar_->settings();
+    settings.mirror_check.enabled = false;
+    continuing_registrar_ =
+        std::make_shared<const Registrar>(registrar_->bones(), settings, registrar_->joints());
+  }
 }
 
 void Tracker::reinitialize(const std::vector<std::string>& bones,
@@ -118,7 +125,10 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
   }
   const auto start = std::chrono::steady_clock::now();
   TrackedFrame frame;
-  frame.result = registrar_->solve(views, guess, loaded);
+  // A frame predicted from two good ones continues their side of a mirror ambiguity (see
+  // MirrorCheckSettings): the motion so far is better evidence than the neutral-joint rule.
+  const bool continuing = previous_.size() == poses_.size();
+  frame.result = (continuing ? continuing_registrar_ : registrar_)->solve(views, guess, loaded);
   frame.solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   frame.poses = frame.result.poses;

@@ -12,6 +12,8 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -24,6 +26,7 @@
 
 #include "command_line.h"
 #include "fluoro_tracker/constraints/articular_contact.h"
+#include "fluoro_tracker/imaging/contour_overlay.h"
 #include "fluoro_tracker/imaging/projection_similarity.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/jointtrack_calibration.h"
@@ -313,13 +316,20 @@ std::vector<registration::JointModel> kneeJoints(const geometry::Mesh& femoral_c
   return joints;
 }
 
+// What runSimulated writes besides its printed figures.
+struct BenchmarkOutputs {
+  std::ostream* quality_csv = nullptr;  // per registration and bone
+  std::string failure_overlay_dir;      // empty: no overlays
+};
+
 void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool ideal_images,
                   const std::string& trial_set, const Perturbation& perturbation,
                   const registration::RegistrationSettings& settings,
                   const std::vector<Condition>& conditions,
                   const constraints::ContactSettings& contact_settings,
                   const constraints::LigamentSettings& ligament_settings,
-                  std::ostream* quality_csv) {
+                  const BenchmarkOutputs& outputs) {
+  std::ostream* quality_csv = outputs.quality_csv;
   if (quality_csv != nullptr) {
     *quality_csv
         << "condition,trial,frame,bone,bone_success,frame_success,inlier_fraction,"
@@ -434,6 +444,15 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
         const std::vector<std::string> status =
             registration::classifyBones(result, settings.quality);
         tally.addStatus(status, success);
+        if (!success && !outputs.failure_overlay_dir.empty()) {
+          char name[64];
+          std::snprintf(name, sizeof(name), "/failed_c%zu_t%02d_f%03d.png", c, trial, f);
+          std::vector<const imaging::SilhouetteModel*> models;
+          for (const auto& bone : registrars[c]->bones()) models.push_back(bone.silhouette.get());
+          cv::imwrite(outputs.failure_overlay_dir + name,
+                      imaging::drawContourOverlay(frame.images[0], simulator.views()[0].camera,
+                                                  models, result.poses));
+        }
         if (quality_csv != nullptr) {
           for (std::size_t b = 0; b < truth.size(); ++b) {
             const auto& q = result.quality[b];
@@ -610,6 +629,7 @@ int main(int argc, char** argv) {
   constraints::LigamentSettings ligaments;
   std::string contact_measure = "quasi_volume";
   std::string quality_csv_path;
+  std::string failure_overlay_dir;
   constraints::ContactSettings contact;
   options.add_options()("help,h", "show this help")(
       "trials", po::value(&trials)->default_value(trials), "simulated trials")(
@@ -635,6 +655,10 @@ int main(int argc, char** argv) {
       "Levenberg-Marquardt iterations per outer iteration")(
       "robust-px", po::value(&settings.robust_scale_px)->default_value(settings.robust_scale_px),
       "Cauchy scale of the contour distance, full-resolution pixels")(
+      "mirror-check",
+      po::value(&settings.mirror_check.enabled)->default_value(settings.mirror_check.enabled),
+      "single view: also solve from the tibial tray's mirror pose and keep it if it fits as well "
+      "and the knee is nearer neutral (true/false)")(
       "clahe", po::value(&settings.edges.clahe)->default_value(settings.edges.clahe),
       "contrast-limited adaptive equalisation of each edge map's grey levels (true/false)")(
       "clahe-clip-limit",
@@ -681,6 +705,9 @@ int main(int argc, char** argv) {
       "quality-csv", po::value(&quality_csv_path),
       "write every registration's quality figures, status and errors (x, y in-plane and z along "
       "the beam in mm; rotations about the bone's axes in deg) per bone to this CSV")(
+      "failure-overlay-dir", po::value(&failure_overlay_dir),
+      "write each failed simulated frame (first view) with the result's contours drawn, as "
+      "failed_c<condition>_t<trial>_f<frame>.png, to this folder")(
       "contact-dead-band-mm", po::value(&contact.dead_band_mm)->default_value(contact.dead_band_mm),
       "penetration allowed without cost");
   po::variables_map vm;
@@ -737,10 +764,15 @@ int main(int argc, char** argv) {
       quality_csv.open(quality_csv_path);
       if (!quality_csv) throw InputError("cannot write --quality-csv '" + quality_csv_path + "'");
     }
+    BenchmarkOutputs outputs;
+    if (quality_csv.is_open()) outputs.quality_csv = &quality_csv;
+    if (!failure_overlay_dir.empty()) {
+      std::filesystem::create_directories(failure_overlay_dir);
+      outputs.failure_overlay_dir = failure_overlay_dir;
+    }
     if (!vm.count("skip-simulated")) {
       runSimulated(trials, frames, views, seed, vm.count("ideal") > 0, trial_set, perturbation,
-                   settings, conditions, contact, ligaments,
-                   quality_csv.is_open() ? &quality_csv : nullptr);
+                   settings, conditions, contact, ligaments, outputs);
     }
     if (!kneel_dir.empty()) {
       runKneel(kneel_dir, kneel_starts, seed, settings, perturbation.search, conditions, ligaments);

@@ -199,8 +199,14 @@ registration:
   outer_iterations: 6
   robust_scale_px: 3.0
   edges: {clahe: true, canny_high: 60}
+  mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
+  EXPECT_FALSE(c.registration.mirror_check.enabled);
+  EXPECT_DOUBLE_EQ(c.registration.mirror_check.cost_tolerance, 0.2);
+  EXPECT_EQ(c.registration.mirror_check.outer_iterations, 3);
+  EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_difference_deg,
+                   registration::MirrorCheckSettings().min_difference_deg);
   EXPECT_EQ(c.registration.scales, (std::vector<double>{0.5, 1.0}));
   EXPECT_EQ(c.registration.outer_iterations, 6);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, 3.0);
@@ -239,6 +245,10 @@ registration:
       dir.file("bad.yaml"),
       "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {scales: [2.0]}\n");
   EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad.yaml")), "scales must be in (0, 1]");
+  test_support::writeText(dir.file("bad_mirror.yaml"),
+                          "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {mirror_check: "
+                          "{cost_tolerance: -0.1}}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_mirror.yaml")), "mirror_check needs");
 }
 
 TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
@@ -263,6 +273,11 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.registration.edge_offset_model, d.edge_offset_model);
   EXPECT_DOUBLE_EQ(c.registration.edge_offset_prior_px, d.edge_offset_prior_px);
   EXPECT_EQ(c.registration.contact_from_outer_iteration, d.contact_from_outer_iteration);
+  EXPECT_EQ(c.registration.mirror_check.enabled, d.mirror_check.enabled);
+  EXPECT_DOUBLE_EQ(c.registration.mirror_check.cost_tolerance, d.mirror_check.cost_tolerance);
+  EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_difference_deg,
+                   d.mirror_check.min_difference_deg);
+  EXPECT_EQ(c.registration.mirror_check.outer_iterations, d.mirror_check.outer_iterations);
   ASSERT_EQ(c.joints.size(), 1u);
   const constraints::ContactSettings contact;
   EXPECT_TRUE(c.joints[0].contact.enabled);

@@ -5,6 +5,7 @@
 #include "../test_support.h"
 #include "fluoro_tracker/registration/contour_distance_cost.h"
 #include "fluoro_tracker/registration/frame_quality.h"
+#include "fluoro_tracker/registration/mirror_ambiguity.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/registration/pose_increment.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
@@ -126,8 +127,10 @@ TEST(Registrar, ContactRelievesPenetrationAndIsReported) {
 TEST(Registrar, LigamentsLeaveResultsInsideTheEnvelopeUnchanged) {
   const Scene scene;
   registration::JointModel knee = kneeJoint();
-  const registration::Registrar with_ligaments(scene.bones, registration::RegistrationSettings(),
-                                               {knee});
+  // The mirror check (its own test below) may choose another pose than the image alone would.
+  registration::RegistrationSettings no_mirror_check;
+  no_mirror_check.mirror_check.enabled = false;
+  const registration::Registrar with_ligaments(scene.bones, no_mirror_check, {knee});
   const registration::Registrar without(scene.bones, registration::RegistrationSettings());
   const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
   const auto coordinates = knee.coordinates(truth[0], truth[1]);
@@ -161,11 +164,13 @@ TEST(Registrar, LigamentsLeaveResultsInsideTheEnvelopeUnchanged) {
 TEST(Registrar, LigamentsPullAJointTowardItsEnvelope) {
   const Scene scene;
   registration::JointModel knee = kneeJoint();
-  const registration::Registrar registrar(scene.bones, registration::RegistrationSettings(),
-                                          {knee});
+  // The springs alone are under test: the mirror check would also free the image-only
+  // registration from this false minimum (measured: 0.5 deg adduction).
+  registration::RegistrationSettings settings;
+  settings.mirror_check.enabled = false;
+  const registration::Registrar registrar(scene.bones, settings, {knee});
   knee.ligaments.enabled = false;
-  const registration::Registrar image_only(scene.bones, registration::RegistrationSettings(),
-                                           {knee});
+  const registration::Registrar image_only(scene.bones, settings, {knee});
   const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
   const std::vector<Pose> start = {
       truth[0], offset(truth[1], Eigen::Vector3d::Zero(), {geometry::degToRad(12.0), 0.0, 0.0})};
@@ -225,6 +230,62 @@ TEST(Registrar, CovarianceIsLargestAlongTheBeam) {
   EXPECT_TRUE(registration::Registrar(scene.bones, registration::RegistrationSettings())
                   .solve({{scene.frame.images[0], scene.simulator.views()[0].camera}}, truth)
                   .covariances.empty());
+}
+
+// Started with the tibial tray on its mirror pose (through the plane along the beam), which the
+// single view cannot tell from the truth, the registration stays there without the mirror
+// check; with it, the pose nearer neutral adduction and axial rotation, the truth, is chosen.
+TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
+  const Scene scene;
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const geometry::XrayCamera& camera = scene.simulator.views()[0].camera;
+  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  const std::vector<Pose> start = {
+      truth[0],
+      camera.worldFromCamera() * registration::mirroredAcrossBeam(camera_from_fixed * truth[1])};
+  const registration::JointModel knee = kneeJoint();
+  ASSERT_GT(registration::neutralDeviation(knee.ligaments, knee.coordinates(start[0], start[1])),
+            registration::neutralDeviation(knee.ligaments, knee.coordinates(truth[0], truth[1])));
+  registration::RegistrationSettings settings;
+  settings.mirror_check.enabled = false;
+  const std::vector<registration::ViewImage> views = {{scene.frame.images[0], camera}};
+  const auto unchecked = registration::Registrar(scene.bones, settings, {knee}).solve(views, start);
+  ASSERT_FALSE(registration::meetsSuccessCriterion(
+      registration::poseError(unchecked.poses[1], truth[1], camera_from_fixed)))
+      << "the mirror must be a distinct pose in this view for the test to mean anything";
+  settings.mirror_check.enabled = true;
+  const auto checked = registration::Registrar(scene.bones, settings, {knee}).solve(views, start);
+  for (int b = 0; b < 2; ++b) {
+    EXPECT_TRUE(registration::meetsSuccessCriterion(
+        registration::poseError(checked.poses[b], truth[b], camera_from_fixed)))
+        << scene.bones[b].name;
+  }
+  // The check's second solve is counted.
+  EXPECT_GT(checked.cost_evaluations, unchecked.cost_evaluations);
+}
+
+TEST(MirrorAmbiguity, MirrorKeepsTheSilhouetteOfASymmetricMeshAndNeutralIsMeasuredInBounds) {
+  const Pose camera_from_mesh = geometry::makePose(
+      geometry::rotationY(0.3) * geometry::rotationX(-0.2), Eigen::Vector3d(0.01, -0.02, 0.9));
+  const Pose mirrored = registration::mirroredAcrossBeam(camera_from_mesh);
+  EXPECT_LT(geometry::rotationAngleBetween(registration::mirroredAcrossBeam(mirrored).linear(),
+                                           camera_from_mesh.linear()),
+            1e-12);
+  EXPECT_LT((mirrored.translation() - camera_from_mesh.translation()).norm(), 1e-15);
+  EXPECT_GT(geometry::rotationAngleBetween(mirrored.linear(), camera_from_mesh.linear()), 0.1);
+  // A point and its reflection through the mesh's X-Y plane swap places, seen along the beam.
+  const Eigen::Vector3d p(0.03, 0.01, 0.02);
+  const Eigen::Vector3d reflected(p.x(), p.y(), -p.z());
+  EXPECT_LT(((mirrored * reflected).head<2>() - (camera_from_mesh * p).head<2>()).norm(), 1e-15);
+
+  constraints::LigamentSettings ligaments;  // adduction +-3 deg, internal rotation +-20 deg
+  kinematics::KneeCoordinates k;
+  k.adduction_rad = geometry::degToRad(1.5);
+  k.internal_rotation_rad = geometry::degToRad(-10.0);
+  k.flexion_rad = geometry::degToRad(90.0);  // not part of the measure
+  EXPECT_NEAR(registration::neutralDeviation(ligaments, k), 0.5 + 0.5, 1e-12);
+  ligaments.bounds[2] = {-10.0, 30.0};  // the bound on the value's side is the unit
+  EXPECT_NEAR(registration::neutralDeviation(ligaments, k), 0.5 + 1.0, 1e-12);
 }
 
 TEST(Registrar, JointsMustNameTwoBonesOfTheRegistrar) {

@@ -1,0 +1,30 @@
+#pragma once
+
+#include "fluoro_tracker/constraints/ligament_envelope.h"
+#include "fluoro_tracker/geometry/pose.h"
+#include "fluoro_tracker/kinematics/knee_coordinates.h"
+
+namespace fluoro_tracker {
+namespace registration {
+
+// A single view cannot tell an implant that is symmetric about its sagittal plane (a tibial
+// tray) from its mirror image through the plane that contains the beam: in orthographic
+// projection the two have the same silhouette, and perspective separates them by a fraction
+// of a pixel. A start on the wrong side converges to the mirror, off by twice the tilt and turn
+// the true pose has relative to the beam.
+
+// The pose of a bone mirrored through the plane across the beam (optical z) at its origin:
+// the pose the view cannot tell from `camera_from_mesh`, for a mesh symmetric about its X-Y
+// plane (the ISB frame's sagittal plane).
+geometry::Pose mirroredAcrossBeam(const geometry::Pose& camera_from_mesh);
+
+// How far a joint is from neutral in the coordinates the mirror changes in a lateral view:
+// |adduction| and |internal rotation|, each in units of its ligament bound on that side (the
+// envelope's half-width when a bound is open). Of two poses that fit the image equally well,
+// the registrar keeps the one nearer neutral: the knee's varus-valgus and axial rotation stay
+// near neutral in most activities, while the mirror adds twice the view's obliquity to both.
+double neutralDeviation(const constraints::LigamentSettings& ligaments,
+                        const kinematics::KneeCoordinates& coordinates);
+
+}  // namespace registration
+}  // namespace fluoro_tracker

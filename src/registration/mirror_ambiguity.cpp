@@ -1,0 +1,35 @@
+#include "fluoro_tracker/registration/mirror_ambiguity.h"
+
+#include <cmath>
+
+namespace fluoro_tracker {
+namespace registration {
+namespace {
+
+// |value| in units of the bound on its side; the half-width when that bound is open or on the
+// wrong side of zero; degrees when both are open.
+double inBoundUnits(double value_deg, const constraints::CoordinateBounds& bounds) {
+  const double side = value_deg >= 0.0 ? bounds.upper : -bounds.lower;
+  double unit = side;
+  if (!(std::isfinite(unit) && unit > 0.0)) unit = 0.5 * (bounds.upper - bounds.lower);
+  if (!(std::isfinite(unit) && unit > 0.0)) unit = 1.0;
+  return std::abs(value_deg) / unit;
+}
+
+}  // namespace
+
+geometry::Pose mirroredAcrossBeam(const geometry::Pose& camera_from_mesh) {
+  const Eigen::Matrix3d flip = Eigen::Vector3d(1.0, 1.0, -1.0).asDiagonal();
+  geometry::Pose mirrored = camera_from_mesh;
+  mirrored.linear() = flip * camera_from_mesh.linear() * flip;
+  return mirrored;
+}
+
+double neutralDeviation(const constraints::LigamentSettings& ligaments,
+                        const kinematics::KneeCoordinates& coordinates) {
+  return inBoundUnits(geometry::radToDeg(coordinates.adduction_rad), ligaments.bounds[1]) +
+         inBoundUnits(geometry::radToDeg(coordinates.internal_rotation_rad), ligaments.bounds[2]);
+}
+
+}  // namespace registration
+}  // namespace fluoro_tracker
