@@ -659,6 +659,14 @@ int main(int argc, char** argv) {
       po::value(&settings.mirror_check.enabled)->default_value(settings.mirror_check.enabled),
       "single view: also solve from the tibial tray's mirror pose and keep it if it fits as well "
       "and the knee is nearer neutral (true/false)")(
+      "mirror-cost-tolerance",
+      po::value(&settings.mirror_check.cost_tolerance)
+          ->default_value(settings.mirror_check.cost_tolerance),
+      "the mirror solution is kept only if its final cost is within this fraction of the first")(
+      "mirror-outer-iterations",
+      po::value(&settings.mirror_check.outer_iterations)
+          ->default_value(settings.mirror_check.outer_iterations),
+      "outer iterations of the mirror's solve")(
       "clahe", po::value(&settings.edges.clahe)->default_value(settings.edges.clahe),
       "contrast-limited adaptive equalisation of each edge map's grey levels (true/false)")(
       "clahe-clip-limit",
