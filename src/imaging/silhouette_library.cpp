@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <opencv2/imgproc.hpp>
 
@@ -12,8 +13,9 @@ namespace imaging {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr double kGridPerUnit = 10.0;  // normalised pixels per sqrt(area)
-constexpr int kTemplatePixels = 96;    // template masks are rendered this wide
+constexpr double kGridPerUnit = 10.0;       // normalised pixels per sqrt(area)
+constexpr int kTemplatePixels = 96;         // template masks are rendered this wide
+constexpr std::size_t kOutlinePoints = 48;  // boundary points kept per template
 
 // The orthographic silhouette of `mesh` at orientation `rotation`: its mask, pixel size (m)
 // and the metric position of pixel (0, 0).
@@ -47,6 +49,19 @@ ShapeTemplate renderTemplate(const geometry::Mesh& mesh, const Eigen::Matrix3d& 
   shape.area_m2 = m.m00 * pixel * pixel;
   shape.centroid_m = origin + centroid * pixel;
   shape.shape = SilhouetteLibrary::normalizedShape(mask, centroid, m.m00, 0.0);
+  // Boundary points (outer and holes), thinned to about kOutlinePoints.
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(mask, contours, cv::RETR_LIST, cv::CHAIN_APPROX_NONE);
+  std::size_t total = 0;
+  for (const auto& c : contours) total += c.size();
+  const std::size_t stride = std::max<std::size_t>(1, total / kOutlinePoints);
+  std::size_t k = 0;
+  for (const auto& c : contours) {
+    for (const cv::Point& p : c) {
+      if (k++ % stride != 0) continue;
+      shape.outline_m.push_back(origin + Eigen::Vector2d(p.x, p.y) * pixel);
+    }
+  }
   return shape;
 }
 
@@ -145,6 +160,91 @@ std::vector<ShapeMatch> SilhouetteLibrary::match(const ImplantBlob& blob, int co
     orientations.push_back(orientation);
   }
   return best;
+}
+
+std::vector<EdgeMatch> SilhouetteLibrary::matchEdges(
+    const cv::Mat& edge_distance, const cv::Rect& search, const std::vector<double>& px_per_m,
+    int count, double roll_step_deg, double position_step_px, double truncation_px,
+    double min_separation_deg, double min_separation_px) const {
+  if (edge_distance.empty() || edge_distance.type() != CV_32F || count < 1) return {};
+  // Truncated distances, so that a lookup is one read.
+  cv::Mat truncated;
+  cv::min(cv::abs(edge_distance), truncation_px, truncated);
+  const cv::Rect area = search & cv::Rect(0, 0, truncated.cols, truncated.rows);
+  if (area.empty()) return {};
+  const int step = std::max(1, static_cast<int>(std::lround(position_step_px)));
+  const int rolls = std::max(1, static_cast<int>(std::lround(360.0 / roll_step_deg)));
+  std::vector<EdgeMatch> best_per_orientation;
+  std::vector<cv::Point> offsets;
+  for (std::size_t t = 0; t < templates_.size(); ++t) {
+    const auto& outline = templates_[t].outline_m;
+    if (outline.empty()) continue;
+    for (int r = 0; r < rolls; ++r) {
+      const double roll = 2.0 * kPi * r / rolls;
+      const Eigen::Matrix2d rotation = rollAboutBeam(roll).topLeftCorner<2, 2>();
+      for (const double scale : px_per_m) {
+        offsets.clear();
+        for (const Eigen::Vector2d& q : outline) {
+          const Eigen::Vector2d o = scale * (rotation * q);
+          offsets.emplace_back(static_cast<int>(std::lround(o.x())),
+                               static_cast<int>(std::lround(o.y())));
+        }
+        EdgeMatch best{static_cast<int>(t), roll, Eigen::Vector2d::Zero(), scale,
+                       std::numeric_limits<double>::infinity()};
+        for (int v = area.y; v < area.y + area.height; v += step) {
+          for (int u = area.x; u < area.x + area.width; u += step) {
+            double sum = 0.0;
+            for (const cv::Point& o : offsets) {
+              const int x = u + o.x;
+              const int y = v + o.y;
+              sum += (x >= 0 && y >= 0 && x < truncated.cols && y < truncated.rows)
+                         ? truncated.at<float>(y, x)
+                         : truncation_px;
+            }
+            if (sum < best.mean_distance_px) {
+              best.mean_distance_px = sum;
+              best.origin_px = Eigen::Vector2d(u, v);
+            }
+          }
+        }
+        best.mean_distance_px /= static_cast<double>(offsets.size());
+        best_per_orientation.push_back(best);
+      }
+    }
+  }
+  std::sort(best_per_orientation.begin(), best_per_orientation.end(),
+            [](const EdgeMatch& a, const EdgeMatch& b) {
+              return a.mean_distance_px < b.mean_distance_px;
+            });
+  std::vector<EdgeMatch> kept;
+  const double min_separation = geometry::degToRad(min_separation_deg);
+  for (const EdgeMatch& candidate : best_per_orientation) {
+    if (static_cast<int>(kept.size()) >= count) break;
+    const Eigen::Matrix3d orientation =
+        rollAboutBeam(candidate.roll_rad) * templates_[candidate.template_index].camera_from_mesh;
+    const bool distinct = std::all_of(kept.begin(), kept.end(), [&](const EdgeMatch& other) {
+      const Eigen::Matrix3d other_orientation =
+          rollAboutBeam(other.roll_rad) * templates_[other.template_index].camera_from_mesh;
+      return geometry::rotationAngleBetween(orientation, other_orientation) >= min_separation ||
+             (candidate.origin_px - other.origin_px).norm() >= min_separation_px;
+    });
+    if (distinct) kept.push_back(candidate);
+  }
+  return kept;
+}
+
+geometry::Pose SilhouetteLibrary::cameraFromMesh(const EdgeMatch& match,
+                                                 const geometry::XrayCamera& camera) const {
+  const ShapeTemplate& t = templates_.at(static_cast<std::size_t>(match.template_index));
+  const double focal = std::sqrt(camera.fx() * camera.fy());
+  const double depth = focal / match.px_per_m;
+  const Eigen::Vector3d ray = camera.pixelRay(match.origin_px);
+  const Eigen::Matrix3d toward_ray =
+      Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), ray).toRotationMatrix();
+  geometry::Pose pose = geometry::Pose::Identity();
+  pose.linear() = toward_ray * rollAboutBeam(match.roll_rad) * t.camera_from_mesh;
+  pose.translation() = depth * ray;  // ray.z() == 1
+  return pose;
 }
 
 geometry::Pose SilhouetteLibrary::cameraFromMesh(const ShapeMatch& match, const ImplantBlob& blob,

@@ -77,6 +77,57 @@ std::vector<geometry::Pose> shapeMatchStarts(const imaging::SilhouetteLibrary& l
   return poses;
 }
 
+// The median of some values (which it reorders); 0 for none.
+double median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+// Starting poses for one bone (camera frame) from chamfer matching of its library on the
+// coarse map's edges, around the largest candidate regions, at the distances the region
+// matches suggest (`depths`: from the joint's combined silhouettes and the bone's own matches;
+// their medians, and 7 % nearer, since a thresholded region is a little smaller than the
+// silhouette).
+std::vector<geometry::Pose> edgeMatchStarts(const imaging::SilhouetteLibrary& library,
+                                            const std::vector<imaging::ImplantBlob>& blobs,
+                                            const imaging::EdgeMap& coarse,
+                                            const std::vector<double>& depths,
+                                            const PoseSearchSettings& settings) {
+  if (depths.empty()) return {};
+  const geometry::XrayCamera& camera = coarse.camera();
+  const double focal = std::sqrt(camera.fx() * camera.fy());
+  const double depth = median(depths);
+  if (!(depth >= settings.min_depth_m && depth <= settings.max_depth_m)) return {};
+  const std::vector<double> px_per_m = {focal / depth, focal / (0.93 * depth)};
+  // Around the largest regions (a merged joint is the largest): their boxes plus a margin.
+  std::vector<const imaging::ImplantBlob*> largest;
+  for (const auto& blob : blobs) largest.push_back(&blob);
+  std::sort(largest.begin(), largest.end(),
+            [](const auto* a, const auto* b) { return a->area_px > b->area_px; });
+  largest.resize(std::min<std::size_t>(largest.size(), settings.edge_match_regions));
+  const cv::Mat distance = cv::abs(coarse.distance());
+  std::vector<geometry::Pose> poses;
+  for (const imaging::ImplantBlob* blob : largest) {
+    const double to_map = coarse.scale() / blob->scale;
+    cv::Rect box(static_cast<int>(std::floor(blob->box.x * to_map)) - coarse.roi().x,
+                 static_cast<int>(std::floor(blob->box.y * to_map)) - coarse.roi().y,
+                 static_cast<int>(std::ceil(blob->box.width * to_map)),
+                 static_cast<int>(std::ceil(blob->box.height * to_map)));
+    const int margin = std::max(box.width, box.height) / 6;
+    box = cv::Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin);
+    // About 30 positions across the box at most: the cost stays bounded on large regions.
+    const double step =
+        std::max(settings.edge_position_step_px, std::max(box.width, box.height) / 30.0);
+    for (const imaging::EdgeMatch& match :
+         library.matchEdges(distance, box, px_per_m, settings.edge_matches_per_bone,
+                            settings.edge_roll_step_deg, step)) {
+      poses.push_back(library.cameraFromMesh(match, camera));
+    }
+  }
+  return poses;
+}
+
 // How well a pose's projected contour lies on the coarse map's edges: the share of contour
 // samples within one coarse pixel of an edge (0 when the bone is not in the view).
 double screeningScore(const imaging::SilhouetteModel& silhouette, const geometry::Pose& pose,
@@ -205,6 +256,14 @@ void PoseSearchSettings::validate() const {
     if (!(s > 0.0 && s <= 1.0)) throw InputError("registration search: refine_scales in (0, 1]");
   }
   if (finalists < 1) throw InputError("registration search: finalists must be >= 1");
+  if (edge_matches_per_bone < 0 || edge_match_regions < 0 ||
+      !(edge_roll_step_deg > 0.5 && edge_roll_step_deg <= 90.0) ||
+      !(edge_position_step_px >= 1.0)) {
+    throw InputError(
+        "registration search: edge_matches_per_bone >= 0, edge_match_regions >= 0, "
+        "edge_roll_step_deg in (0.5, 90] and "
+        "edge_position_step_px >= 1 are needed");
+  }
   if (!(envelope_penalty_per_unit >= 0.0) || !(penetration_penalty_per_mm >= 0.0)) {
     throw InputError("registration search: penalties must be >= 0");
   }
@@ -324,6 +383,8 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
   // distances (a region thresholded from a blurred rim is smaller than the silhouette); and
   // both bones of a joint from matches of the joint's combined silhouettes.
   std::vector<std::vector<geometry::Pose>> joint_starts(bones);
+  // Per bone, distances from the source that region matches suggest (for edge matching).
+  std::vector<std::vector<double>> depth_hints(bones);
   {
     struct JointStart {
       double dissimilarity;
@@ -350,6 +411,8 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
          k < found_joints.size() && static_cast<int>(k) < settings_.joint_matches; ++k) {
       const JointStart& js = found_joints[k];
       const JointModel& joint = registrar_->joints()[js.joint];
+      depth_hints[joint.parent].push_back(js.parent.translation().z());
+      depth_hints[joint.child].push_back(js.child.translation().z());
       for (const double depth_factor : {1.0, 0.93}) {
         geometry::Pose parent = js.parent;
         geometry::Pose child = js.child;
@@ -362,16 +425,30 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
   }
   for (std::size_t b = 0; b < bones; ++b) {
     std::vector<geometry::Pose> starts = joint_starts[b];
-    for (const geometry::Pose& camera_pose :
-         shapeMatchStarts(*libraries_[b], blobs, first.camera, settings_)) {
+    const std::vector<geometry::Pose> shape_starts =
+        shapeMatchStarts(*libraries_[b], blobs, first.camera, settings_);
+    for (const geometry::Pose& camera_pose : shape_starts) {
       for (const double depth_factor : {1.0, 0.93, 0.86}) {
         geometry::Pose scaled = camera_pose;
         scaled.translation() *= depth_factor;
         addStart(&starts, scaled);
       }
     }
+    std::vector<geometry::Pose> edge_starts;
+    if (settings_.edge_matching && !blobs.empty()) {
+      for (std::size_t k = 0; k < shape_starts.size() && k < 2; ++k) {
+        depth_hints[b].push_back(shape_starts[k].translation().z());
+      }
+      for (const geometry::Pose& camera_pose :
+           edgeMatchStarts(*libraries_[b], blobs, coarse, depth_hints[b], settings_)) {
+        addStart(&edge_starts, camera_pose);
+      }
+    }
     if (!seeds.empty() && geometry::isValidPose(seeds[b])) starts.push_back(seeds[b]);
     refineBest(b, starts);
+    // Refined apart: chamfer matches fit edges by construction, so on a cluttered frame they
+    // would outscore the region matches in screening and crowd them out (real Kneel frames).
+    refineBest(b, edge_starts);
   }
 
   // The rotation about a bone's long axis (mesh Y in the ISB frame) is what a silhouette shows
@@ -384,7 +461,7 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
     best.resize(std::min<std::size_t>(best.size(), 2));
     std::vector<geometry::Pose> starts;
     for (const Hypothesis& h : best) {
-      for (const double spin_deg : {-30.0, -15.0, 15.0, 30.0}) {
+      for (const double spin_deg : {-30.0, -15.0, 15.0, 30.0, 180.0}) {
         geometry::Pose spun = h.pose;
         spun.linear() = h.pose.linear() *
                         Eigen::AngleAxisd(geometry::degToRad(spin_deg), Eigen::Vector3d::UnitY())
@@ -485,8 +562,13 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
     for (std::size_t b = 0; b < bones; ++b) {
       score += registered.diverged[b] ? 0.0 : registered.quality[b].contour_inlier_fraction;
     }
-    for (const JointResult& joint : registered.joints) {
+    for (std::size_t j = 0; j < registered.joints.size(); ++j) {
+      const JointResult& joint = registered.joints[j];
       score -= jointPenalty(joint.quality.envelope_violation, joint.quality.penetration_m);
+      // Between equally good fits (a mirror pose), the joint nearer neutral (see
+      // Registrar's mirror check).
+      score -= settings_.neutral_penalty_per_unit *
+               neutralDeviation(registrar_->joints()[j].ligaments, joint.coordinates);
     }
     if (score > best_score) {
       best_score = score;

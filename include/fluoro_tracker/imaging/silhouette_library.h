@@ -20,6 +20,20 @@ struct ShapeTemplate {
   double area_m2 = 0.0;              // orthographic silhouette area
   Eigen::Vector2d centroid_m;  // silhouette centroid relative to the mesh origin (camera x, y)
   cv::Mat shape;               // normalised silhouette (see normalizedShape)
+  // Points spread along the silhouette's boundaries (outer and inner), metres from the mesh
+  // origin (camera x, y): what edge matching compares with the image's edges.
+  std::vector<Eigen::Vector2d> outline_m;
+};
+
+// A template placed on a frame's edges (SilhouetteLibrary::matchEdges): orientation (template
+// and roll about the beam), the mesh origin's pixel and the projection scale, and the mean
+// truncated distance of the template's outline to the nearest edge (pixels; lower is better).
+struct EdgeMatch {
+  int template_index = -1;
+  double roll_rad = 0.0;
+  Eigen::Vector2d origin_px = Eigen::Vector2d::Zero();
+  double px_per_m = 0.0;
+  double mean_distance_px = 0.0;
 };
 
 // A silhouette region matched to a template: the roll about the beam that aligns them, and
@@ -48,6 +62,26 @@ class SilhouetteLibrary {
   // best first, no two closer than min_separation_deg in orientation.
   std::vector<ShapeMatch> match(const ImplantBlob& blob, int count, double roll_step_deg = 10.0,
                                 double min_separation_deg = 20.0) const;
+
+  // Chamfer matching: every template and roll (every roll_step_deg), at each projection scale
+  // (pixels per metre at the bone, i.e. focal length / distance) and at mesh-origin positions
+  // every position_step_px inside `search`, scored by the mean distance of the outline's
+  // points to the nearest edge, each truncated at truncation_px (so that occluded or merged
+  // parts of the outline cost a bounded amount). `edge_distance`: CV_32F distances to the
+  // nearest edge in pixels (e.g. the absolute value of EdgeMap::distance()). Returns the
+  // `count` best placements, no two with orientations closer than min_separation_deg and
+  // origins closer than min_separation_px. Unlike region matching it needs no region of the
+  // implant alone: a bone whose silhouette merges with its neighbour's is still found by the
+  // edges of its own outline.
+  std::vector<EdgeMatch> matchEdges(const cv::Mat& edge_distance, const cv::Rect& search,
+                                    const std::vector<double>& px_per_m, int count,
+                                    double roll_step_deg = 15.0, double position_step_px = 3.0,
+                                    double truncation_px = 3.0, double min_separation_deg = 15.0,
+                                    double min_separation_px = 6.0) const;
+
+  // The mesh pose, in the optical frame of `camera` (whose pixels edge_distance had), that an
+  // edge match implies.
+  geometry::Pose cameraFromMesh(const EdgeMatch& match, const geometry::XrayCamera& camera) const;
 
   // The mesh pose, in the camera's optical frame, that a match implies for the region: the
   // template's orientation rolled by the match and turned toward the ray through the region,

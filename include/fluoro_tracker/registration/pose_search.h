@@ -23,6 +23,14 @@ struct PoseSearchSettings {
   double joint_flexion_step_deg = 15.0;
   double joint_direction_step_deg = 20.0;
   int joint_matches = 4;  // best joint matches whose bones' poses are tried
+  // Chamfer matching of each bone's library on the coarse edge map (SilhouetteLibrary::
+  // matchEdges) around the candidate regions, at the distances the region matches suggest:
+  // finds a bone whose region merged with its neighbour's (the knee in flexion).
+  bool edge_matching = true;
+  int edge_matches_per_bone = 6;  // per region
+  int edge_match_regions = 2;     // the largest candidate regions are searched
+  double edge_roll_step_deg = 15.0;
+  double edge_position_step_px = 3.0;  // screening-scale pixels
   // Every start (matches, their mirrors, envelope samples) is screened by how much of its
   // contour lies on the edges of the frame at this scale; the best few are refined.
   double screening_scale = 0.25;
@@ -42,6 +50,8 @@ struct PoseSearchSettings {
   // per unit of a joint's ligament envelope violation (deg or mm) and penetration (mm).
   double envelope_penalty_per_unit = 0.02;
   double penetration_penalty_per_mm = 0.05;
+  // ... and, among the jointly registered finalists, per unit of neutralDeviation.
+  double neutral_penalty_per_unit = 0.05;
   int finalists = 3;  // best combinations registered jointly before the final choice
   imaging::ImplantBlobSettings blobs;
 

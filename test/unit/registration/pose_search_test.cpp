@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "../test_support.h"
+#include "fluoro_tracker/imaging/edge_map.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/jointtrack_calibration.h"
 #include "fluoro_tracker/io/jts_file.h"
@@ -39,6 +40,77 @@ TEST(SilhouetteLibrary, RecoversTheOrientationOfARenderedView) {
   }
   // Within a library step (15 deg) of the truth, before any registration.
   EXPECT_LT(best_angle, 15.0);
+}
+
+// Chamfer matching of the tibial tray's library on a frame's coarse edges, at the tray's true
+// distance, places a template within about a library step and a roll step (15 deg each) of the
+// truth, which the refinement that follows closes, and its origin within a few pixels, with no
+// region of the tray alone needed.
+TEST(SilhouetteLibrary, EdgeMatchingPlacesTheTrayOnItsOutline) {
+  sim::TrialSimulatorSettings s;
+  s.motion.frames = 10;
+  const sim::TrialSimulator sim(s);
+  std::mt19937_64 rng(3);
+  const auto frame = sim.render(5, &rng);  // deepest flexion: the components' regions merge
+  const geometry::XrayCamera& camera = sim.views()[0].camera;
+  const imaging::EdgeMap coarse(frame.images[0], camera, imaging::EdgeMapSettings(), cv::Rect(),
+                                0.25);
+  const Pose truth = camera.worldFromCamera().inverse() * frame.tibia;
+  Eigen::Vector2d origin_px;
+  ASSERT_TRUE(coarse.camera().project(truth.translation(), &origin_px));
+  const cv::Rect search(static_cast<int>(origin_px.x()) - 30, static_cast<int>(origin_px.y()) - 30,
+                        60, 60);
+  const double px_per_m = coarse.camera().fx() / truth.translation().z();
+  const imaging::SilhouetteLibrary library(sim.implants().tibial_tray);
+  const auto matches = library.matchEdges(cv::abs(coarse.distance()), search, {px_per_m}, 6);
+  ASSERT_FALSE(matches.empty());
+  double best_angle = 180.0;
+  for (const auto& match : matches) {
+    EXPECT_LE(match.mean_distance_px, 3.0);
+    const Pose pose = library.cameraFromMesh(match, coarse.camera());
+    if ((match.origin_px - origin_px).norm() > 4.0) continue;
+    best_angle =
+        std::min(best_angle,
+                 geometry::radToDeg(geometry::rotationAngleBetween(pose.linear(), truth.linear())));
+  }
+  EXPECT_LT(best_angle, 20.0);
+}
+
+// In deep flexion the femoral component and the tray form one region; the search still finds
+// both (chamfer matching of each bone's library on the frame's edges).
+TEST(PoseSearch, FindsBothComponentsInDeepFlexion) {
+  sim::TrialSimulatorSettings s;
+  s.motion.frames = 10;
+  s.motion.max_flexion_deg = 100.0;
+  const sim::TrialSimulator sim(s);
+  std::mt19937_64 rng(5);
+  const auto frame = sim.render(5, &rng);
+  const registration::PoseSearch search(simulatedKneeRegistrar(sim));
+  const auto found = search.search({{frame.images[0], sim.views()[0].camera}});
+  const Pose camera_from_fixed = sim.views()[0].camera.worldFromCamera().inverse();
+  const std::vector<Pose> truth = {frame.femur, frame.tibia};
+  for (int b = 0; b < 2; ++b) {
+    const auto e =
+        registration::poseError(found.registration.poses[b], truth[b], camera_from_fixed);
+    EXPECT_TRUE(registration::meetsSuccessCriterion(e))
+        << "bone " << b << ": in-plane " << e.translation_mm.head<2>().transpose()
+        << " mm, rotation " << e.rotation_deg.transpose() << " deg";
+  }
+  registration::PoseSearchSettings regions_only;
+  regions_only.edge_matching = false;
+  const registration::PoseSearch without(simulatedKneeRegistrar(sim), regions_only);
+  bool found_without = false;
+  try {
+    const auto r = without.search({{frame.images[0], sim.views()[0].camera}});
+    found_without = true;
+    for (int b = 0; b < 2; ++b) {
+      found_without = found_without && registration::meetsSuccessCriterion(registration::poseError(
+                                           r.registration.poses[b], truth[b], camera_from_fixed));
+    }
+  } catch (const InputError&) {
+  }
+  EXPECT_FALSE(found_without) << "region matching alone also finds this frame: the test shows "
+                                 "nothing about edge matching";
 }
 
 TEST(PoseSearch, FindsBothComponentsWithNoGuess) {
