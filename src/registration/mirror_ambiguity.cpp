@@ -25,6 +25,20 @@ geometry::Pose mirroredAcrossBeam(const geometry::Pose& camera_from_mesh) {
   return mirrored;
 }
 
+geometry::Pose turnReflectedAcrossBeam(const geometry::Pose& camera_from_mesh) {
+  const Eigen::Vector3d axis = camera_from_mesh.linear().col(1);
+  const Eigen::Vector3d beam = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d across = beam - beam.dot(axis) * axis;  // beam, perpendicular to axis
+  if (across.norm() < 1e-6) return camera_from_mesh;
+  const Eigen::Vector3d normal = axis.cross(across).normalized();  // of the plane (axis, beam)
+  const Eigen::Vector3d lateral = camera_from_mesh.linear().col(2);
+  const Eigen::Vector3d mirrored = lateral - 2.0 * lateral.dot(normal) * normal;
+  const double angle = std::atan2(lateral.cross(mirrored).dot(axis), lateral.dot(mirrored));
+  geometry::Pose turned = camera_from_mesh;
+  turned.linear() = Eigen::AngleAxisd(angle, axis).toRotationMatrix() * camera_from_mesh.linear();
+  return turned;
+}
+
 double neutralDeviation(const constraints::LigamentSettings& ligaments,
                         const kinematics::KneeCoordinates& coordinates) {
   return inBoundUnits(geometry::radToDeg(coordinates.adduction_rad), ligaments.bounds[1]) +

@@ -387,28 +387,43 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
   const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();
   for (const JointModel& joint : joints_) {
     if (result.diverged[joint.parent] || result.diverged[joint.child]) continue;
-    std::vector<geometry::Pose> starts = result.poses;
-    const geometry::Pose& child = result.poses[joint.child];
-    starts[joint.child] =
-        camera_from_fixed.inverse() * mirroredAcrossBeam(camera_from_fixed * child);
-    if (geometry::rotationAngleBetween(starts[joint.child].linear(), child.linear()) <
-        geometry::degToRad(settings_.mirror_check.min_difference_deg)) {
-      continue;
-    }
     const auto deviation = [&](const std::vector<geometry::Pose>& poses) {
       return neutralDeviation(joint.ligaments,
                               joint.coordinates(poses[joint.parent], poses[joint.child]));
     };
-    // The mirror differs from the solution in rotation only: the finest scale's maps serve.
-    RegistrationResult mirror = solveFrom(views, starts, loaded, &finest_maps);
-    const bool keep_mirror =
-        !mirror.diverged[joint.parent] && !mirror.diverged[joint.child] &&
-        mirror.final_cost <= (1.0 + settings_.mirror_check.cost_tolerance) * result.final_cost &&
-        deviation(mirror.poses) < deviation(result.poses);
-    const int evaluations = result.cost_evaluations + mirror.cost_evaluations;
-    const int solver_iterations = result.solver_iterations + mirror.solver_iterations;
-    const int outer_iterations = result.outer_iterations + mirror.outer_iterations;
-    if (keep_mirror) result = std::move(mirror);
+    const geometry::Pose child = camera_from_fixed * result.poses[joint.child];
+    std::vector<geometry::Pose> candidates = {mirroredAcrossBeam(child)};
+    if (settings_.mirror_check.turn_reflection)
+      candidates.push_back(turnReflectedAcrossBeam(child));
+    const double first_cost = result.final_cost;
+    const double first_deviation = deviation(result.poses);
+    double best_deviation = first_deviation;
+    int evaluations = result.cost_evaluations;
+    int solver_iterations = result.solver_iterations;
+    int outer_iterations = result.outer_iterations;
+    RegistrationResult best;
+    bool replaced = false;
+    for (const geometry::Pose& candidate : candidates) {
+      if (geometry::rotationAngleBetween(candidate.linear(), child.linear()) <
+          geometry::degToRad(settings_.mirror_check.min_difference_deg)) {
+        continue;
+      }
+      std::vector<geometry::Pose> starts = result.poses;
+      starts[joint.child] = camera_from_fixed.inverse() * candidate;
+      // The mirror differs from the solution in rotation only: the finest scale's maps serve.
+      RegistrationResult mirror = solveFrom(views, starts, loaded, &finest_maps);
+      evaluations += mirror.cost_evaluations;
+      solver_iterations += mirror.solver_iterations;
+      outer_iterations += mirror.outer_iterations;
+      if (!mirror.diverged[joint.parent] && !mirror.diverged[joint.child] &&
+          mirror.final_cost <= (1.0 + settings_.mirror_check.cost_tolerance) * first_cost &&
+          deviation(mirror.poses) < best_deviation) {
+        best_deviation = deviation(mirror.poses);
+        best = std::move(mirror);
+        replaced = true;
+      }
+    }
+    if (replaced) result = std::move(best);
     result.cost_evaluations = evaluations;
     result.solver_iterations = solver_iterations;
     result.outer_iterations = outer_iterations;

@@ -659,6 +659,10 @@ int main(int argc, char** argv) {
       po::value(&settings.mirror_check.enabled)->default_value(settings.mirror_check.enabled),
       "single view: also solve from the tibial tray's mirror pose and keep it if it fits as well "
       "and the knee is nearer neutral (true/false)")(
+      "mirror-turn",
+      po::value(&settings.mirror_check.turn_reflection)
+          ->default_value(settings.mirror_check.turn_reflection),
+      "the mirror check also tries the tray's turn about its long axis reflected (true/false)")(
       "mirror-cost-tolerance",
       po::value(&settings.mirror_check.cost_tolerance)
           ->default_value(settings.mirror_check.cost_tolerance),

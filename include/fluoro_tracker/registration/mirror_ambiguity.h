@@ -18,6 +18,13 @@ namespace registration {
 // plane (the ISB frame's sagittal plane).
 geometry::Pose mirroredAcrossBeam(const geometry::Pose& camera_from_mesh);
 
+// The pose of a bone turned about its long axis (mesh Y) so that its medial-lateral axis (mesh
+// Z) is mirrored through the plane that contains the long axis and the beam: its turn relative
+// to the beam reversed, its tilt kept. For an implant nearly symmetric front to back (a tray
+// seen from the side) the silhouette changes little. Returns the pose unchanged when the long
+// axis lies along the beam.
+geometry::Pose turnReflectedAcrossBeam(const geometry::Pose& camera_from_mesh);
+
 // How far a joint is from neutral in the coordinates the mirror changes in a lateral view:
 // |adduction| and |internal rotation|, each in units of its ligament bound on that side (the
 // envelope's half-width when a bound is open). Of two poses that fit the image equally well,

@@ -37,21 +37,24 @@ struct RegistrationStage {
   }
 };
 
-// Single-view registrations of a joint also try the child bone's mirror pose (see
+// Single-view registrations of a joint also try the child bone's mirror poses (see
 // mirror_ambiguity.h): from the solution with the child mirrored through the plane across the
-// beam, the frame is solved again on the finest scale's edge maps, and the mirror solution is
-// kept when it fits about as well (final cost within cost_tolerance of the first) and leaves
-// the joint nearer neutral (neutralDeviation, in units of the joint's ligament bounds, which
-// are the knee's defaults when the joint has no springs). The assumption: of two poses the
-// image cannot tell apart, the knee's varus-valgus and axial rotation are the smaller. Measured
-// (benchmark, contact + ligaments): success 92 -> 95 % under the standard protocol, 70 -> 78 %
-// from crude starts, 66 -> 70 % on poor images; the median time per frame rises from 27 to
-// 39 ms (the second solve).
+// beam, and (turn_reflection) with its turn about its long axis reversed, the frame is solved
+// again on the finest scale's edge maps; a candidate is kept when it fits about as well (final
+// cost within cost_tolerance of the first solution's) and leaves the joint nearest neutral
+// (neutralDeviation, in units of the joint's ligament bounds, which are the knee's defaults
+// when the joint has no springs). The assumption: of poses the image cannot tell apart, the
+// knee's varus-valgus and axial rotation are the smallest. Measured (benchmark, contact +
+// ligaments): success 92 -> 95 % under the standard protocol, 70 -> 78 % from crude starts,
+// 66 -> 78 % on poor images; the median time per frame rises from 27 to 49 ms (two solves).
 struct MirrorCheckSettings {
   bool enabled = true;
   double cost_tolerance = 0.1;
   double min_difference_deg = 1.0;  // mirrors nearer the solution than this are not tried
   int outer_iterations = 2;         // of the mirror's solve (finest scale, each stage)
+  // Also try the child turned about its long axis to the mirror of its turn relative to the
+  // beam (turnReflectedAcrossBeam), a second solve.
+  bool turn_reflection = true;
 };
 
 struct RegistrationSettings {

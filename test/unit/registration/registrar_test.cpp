@@ -278,6 +278,21 @@ TEST(MirrorAmbiguity, MirrorKeepsTheSilhouetteOfASymmetricMeshAndNeutralIsMeasur
   const Eigen::Vector3d reflected(p.x(), p.y(), -p.z());
   EXPECT_LT(((mirrored * reflected).head<2>() - (camera_from_mesh * p).head<2>()).norm(), 1e-15);
 
+  // The turn reflection keeps the long axis and the position, reverses the medial-lateral
+  // axis's turn about it relative to the beam, and undoes itself.
+  const Pose turned = registration::turnReflectedAcrossBeam(camera_from_mesh);
+  const Eigen::Vector3d axis = camera_from_mesh.linear().col(1);
+  EXPECT_LT((turned.linear().col(1) - axis).norm(), 1e-12);
+  EXPECT_LT((turned.translation() - camera_from_mesh.translation()).norm(), 1e-15);
+  const Eigen::Vector3d normal =
+      axis.cross(Eigen::Vector3d::UnitZ() - axis.z() * axis).normalized();
+  EXPECT_NEAR(turned.linear().col(2).dot(normal), -camera_from_mesh.linear().col(2).dot(normal),
+              1e-12);
+  EXPECT_GT(std::abs(camera_from_mesh.linear().col(2).dot(normal)), 0.05);
+  EXPECT_LT(geometry::rotationAngleBetween(registration::turnReflectedAcrossBeam(turned).linear(),
+                                           camera_from_mesh.linear()),
+            1e-9);
+
   constraints::LigamentSettings ligaments;  // adduction +-3 deg, internal rotation +-20 deg
   kinematics::KneeCoordinates k;
   k.adduction_rad = geometry::degToRad(1.5);
