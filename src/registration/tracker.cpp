@@ -59,6 +59,7 @@ void Tracker::reinitialize(const std::vector<std::string>& bones,
   poses_ = updated;
   previous_.clear();
   recovering_ = false;
+  poses_registered_ = false;
 }
 
 void Tracker::requestSearch() {
@@ -95,6 +96,7 @@ void Tracker::accept(TrackedFrame* frame) {
   if (!first || !any_lost) poses_ = frame->poses;
   if (first && any_lost) poses_.clear();  // not found yet: search again next frame
   recovering_ = any_lost && search_ != nullptr;
+  poses_registered_ = !poses_.empty();
 }
 
 TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vector<bool>& loaded) {
@@ -125,10 +127,12 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
   }
   const auto start = std::chrono::steady_clock::now();
   TrackedFrame frame;
-  // A frame predicted from two good ones continues their side of a mirror ambiguity (see
-  // MirrorCheckSettings): the motion so far is better evidence than the neutral-joint rule.
-  const bool continuing = previous_.size() == poses_.size();
-  frame.result = (continuing ? continuing_registrar_ : registrar_)->solve(views, guess, loaded);
+  // A frame started from an earlier frame's registration continues its side of a mirror
+  // ambiguity (see MirrorCheckSettings), which that registration (or the search) chose: the
+  // motion so far is better evidence than the neutral-joint rule. Poses given by the user (the
+  // first frame, reinitialize) are checked.
+  frame.result =
+      (poses_registered_ ? continuing_registrar_ : registrar_)->solve(views, guess, loaded);
   frame.solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   frame.poses = frame.result.poses;

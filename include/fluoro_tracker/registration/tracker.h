@@ -28,9 +28,9 @@ struct TrackedFrame {
 // also starts without poses (the first frame is searched) and recovers: a frame whose
 // registration loses a bone is searched at once, seeded by the last good poses (so a crude
 // first-frame guess costs no frame); if that finds nothing, each following frame is searched
-// until no bone is lost. Frames predicted from two good frames skip the registrar's mirror
-// check (the motion so far tells the side); the others (the first, those after a search or a
-// lost bone) have it as configured.
+// until no bone is lost. Frames started from an earlier frame's registration skip the
+// registrar's mirror check (the motion so far tells the side); frames started from poses the
+// user gave (the first frame, reinitialize) have it as configured.
 // ROS-free: used by track_bag and the tracking node.
 class Tracker {
  public:
@@ -73,12 +73,13 @@ class Tracker {
   void accept(TrackedFrame* frame);
 
   std::shared_ptr<const Registrar> registrar_;
-  // The same registrar without the mirror check, for frames predicted from two good ones.
+  // The same registrar without the mirror check, for frames started from registered poses.
   std::shared_ptr<const Registrar> continuing_registrar_;
   std::shared_ptr<const PoseSearch> search_;
   bool recovering_ = false;               // a bone was lost: search the next frames
   std::vector<geometry::Pose> poses_;     // last good pose per bone
   std::vector<geometry::Pose> previous_;  // the good poses one frame earlier (empty: none)
+  bool poses_registered_ = false;         // poses_ come from a registration, not the user
 };
 
 }  // namespace registration
