@@ -5,6 +5,7 @@
 #include <random>
 
 #include "../test_support.h"
+#include "fluoro_tracker/registration/mirror_ambiguity.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
 #include "simulated_knee.h"
@@ -164,4 +165,46 @@ TEST(Tracker, SearchesALostFrameAtOnce) {
         << "bone " << b;
   }
   EXPECT_FALSE(tracker.recovering());
+}
+
+// Poses the user gives may sit on the tray's mirror branch: the first frame is mirror-checked
+// (and lands on the truth); frames started from an earlier registration are not (one solve,
+// at most the configured outer iterations).
+TEST(Tracker, ChecksTheMirrorOnlyFromPosesTheUserGave) {
+  sim::TrialSimulatorSettings s;
+  s.motion.frames = 12;
+  const sim::TrialSimulator simulator(s);
+  // The knee with its ligament envelope and no contact: from the mirrored start the tray's
+  // plate cuts deep into the femoral component, and contact would push the bones apart first.
+  registration::JointModel knee;
+  knee.name = "knee";
+  knee.parent = 0;
+  knee.child = 1;
+  const auto registrar = std::make_shared<const registration::Registrar>(
+      std::vector<registration::BoneModel>{
+          {"femur",
+           std::make_shared<imaging::SilhouetteModel>(simulator.implants().femoral_component), 1.0},
+          {"tibia", std::make_shared<imaging::SilhouetteModel>(simulator.implants().tibial_tray),
+           1.0}},
+      registration::RegistrationSettings(), std::vector<registration::JointModel>{knee});
+  std::mt19937_64 rng(3);
+  const auto frame = simulator.render(5, &rng);
+  const geometry::XrayCamera& camera = simulator.views()[0].camera;
+  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  const Pose mirrored_tibia =
+      camera.worldFromCamera() * registration::mirroredAcrossBeam(camera_from_fixed * frame.tibia);
+  ASSERT_GT(geometry::radToDeg(
+                geometry::rotationAngleBetween(mirrored_tibia.linear(), frame.tibia.linear())),
+            2.0);
+  registration::Tracker tracker(registrar, {frame.femur, mirrored_tibia});
+  const std::vector<registration::ViewImage> views = {{frame.images[0], camera}};
+  const registration::TrackedFrame first = tracker.track(views);
+  EXPECT_TRUE(registration::meetsSuccessCriterion(
+      registration::poseError(first.poses[1], frame.tibia, camera_from_fixed)));
+  const int configured = registrar->settings().outer_iterations;
+  EXPECT_GT(first.result.outer_iterations, configured);  // the check's extra solves
+  const registration::TrackedFrame second = tracker.track(views);
+  EXPECT_LE(second.result.outer_iterations, configured);
+  EXPECT_TRUE(registration::meetsSuccessCriterion(
+      registration::poseError(second.poses[1], frame.tibia, camera_from_fixed)));
 }
