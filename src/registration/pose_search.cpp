@@ -87,7 +87,7 @@ double median(std::vector<double> values) {
 // Starting poses for one bone (camera frame) from chamfer matching of its library on the
 // coarse map's edges, around the largest candidate regions, at the distances the region
 // matches suggest (`depths`: from the joint's combined silhouettes and the bone's own matches;
-// their medians, and 7 % nearer, since a thresholded region is a little smaller than the
+// their median, and 7 % nearer, since a thresholded region is a little smaller than the
 // silhouette).
 std::vector<geometry::Pose> edgeMatchStarts(const imaging::SilhouetteLibrary& library,
                                             const std::vector<imaging::ImplantBlob>& blobs,
@@ -260,10 +260,10 @@ void PoseSearchSettings::validate() const {
       !(edge_position_step_px >= 1.0)) {
     throw InputError(
         "registration search: edge_matches_per_bone >= 0, edge_match_regions >= 0, "
-        "edge_roll_step_deg in (0.5, 90] and "
-        "edge_position_step_px >= 1 are needed");
+        "edge_roll_step_deg in (0.5, 90] and edge_position_step_px >= 1 are needed");
   }
-  if (!(envelope_penalty_per_unit >= 0.0) || !(penetration_penalty_per_mm >= 0.0)) {
+  if (!(envelope_penalty_per_unit >= 0.0) || !(penetration_penalty_per_mm >= 0.0) ||
+      !(neutral_penalty_per_unit >= 0.0)) {
     throw InputError("registration search: penalties must be >= 0");
   }
   if (blobs.threshold_fractions.empty() || blobs.working_size_px < 32) {

@@ -396,8 +396,7 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
     if (settings_.mirror_check.turn_reflection)
       candidates.push_back(turnReflectedAcrossBeam(child));
     const double first_cost = result.final_cost;
-    const double first_deviation = deviation(result.poses);
-    double best_deviation = first_deviation;
+    double best_deviation = deviation(result.poses);
     int evaluations = result.cost_evaluations;
     int solver_iterations = result.solver_iterations;
     int outer_iterations = result.outer_iterations;
@@ -415,10 +414,13 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
       evaluations += mirror.cost_evaluations;
       solver_iterations += mirror.solver_iterations;
       outer_iterations += mirror.outer_iterations;
-      if (!mirror.diverged[joint.parent] && !mirror.diverged[joint.child] &&
-          mirror.final_cost <= (1.0 + settings_.mirror_check.cost_tolerance) * first_cost &&
-          deviation(mirror.poses) < best_deviation) {
-        best_deviation = deviation(mirror.poses);
+      if (mirror.diverged[joint.parent] || mirror.diverged[joint.child] ||
+          mirror.final_cost > (1.0 + settings_.mirror_check.cost_tolerance) * first_cost) {
+        continue;
+      }
+      const double mirror_deviation = deviation(mirror.poses);
+      if (mirror_deviation < best_deviation) {
+        best_deviation = mirror_deviation;
         best = std::move(mirror);
         replaced = true;
       }

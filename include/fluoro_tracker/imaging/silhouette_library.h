@@ -69,11 +69,10 @@ class SilhouetteLibrary {
   // points to the nearest edge, each truncated at truncation_px (so that occluded or merged
   // parts of the outline cost a bounded amount). `edge_distance`: CV_32F distances to the
   // nearest edge in pixels, signed or not (e.g. EdgeMap::distance(); the magnitude counts).
-  // Returns the
-  // `count` best placements, no two with orientations closer than min_separation_deg and
-  // origins closer than min_separation_px. Unlike region matching it needs no region of the
-  // implant alone: a bone whose silhouette merges with its neighbour's is still found by the
-  // edges of its own outline.
+  // Returns the `count` best placements, no two with orientations closer than
+  // min_separation_deg and origins closer than min_separation_px. Unlike region matching it
+  // needs no region of the implant alone: a bone whose silhouette merges with its neighbour's
+  // is still found by the edges of its own outline.
   std::vector<EdgeMatch> matchEdges(const cv::Mat& edge_distance, const cv::Rect& search,
                                     const std::vector<double>& px_per_m, int count,
                                     double roll_step_deg = 15.0, double position_step_px = 3.0,
