@@ -76,7 +76,9 @@ struct RegistrationSettings {
   // the beam. kUniform estimates one offset per bone and view (pixels, + inward) along the
   // contour normals, with a zero-mean prior of edge_offset_prior_px; kNone compares the
   // geometric silhouette as it is. Measured (benchmark, 100 frames): out-of-plane RMS 4.8 mm
-  // with kNone, 2.0 mm with kUniform.
+  // with kNone, 2.0 mm with kUniform. The offset is held at zero (or its value carried from
+  // earlier) until the finest scale's second outer iteration: while the contour is still pixels
+  // away, a free offset fits it to whatever edges lie nearby and the pose follows.
   enum class EdgeOffsetModel { kNone, kUniform };
   EdgeOffsetModel edge_offset_model = EdgeOffsetModel::kUniform;
   double edge_offset_prior_px = 0.5;  // full-resolution pixels
