@@ -262,12 +262,13 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
     }
   }
   const YamlSection mirror = section.child("mirror_check");
-  mirror.allowOnly(
-      {"enabled", "cost_tolerance", "min_difference_deg", "outer_iterations", "turn_reflection"});
+  mirror.allowOnly({"enabled", "cost_tolerance", "min_difference_deg", "outer_iterations",
+                    "solver_iterations", "turn_reflection"});
   mirror.read("enabled", &r.mirror_check.enabled);
   mirror.read("cost_tolerance", &r.mirror_check.cost_tolerance);
   mirror.read("min_difference_deg", &r.mirror_check.min_difference_deg);
   mirror.read("outer_iterations", &r.mirror_check.outer_iterations);
+  mirror.read("solver_iterations", &r.mirror_check.solver_iterations);
   mirror.read("turn_reflection", &r.mirror_check.turn_reflection);
   const YamlSection edges = section.child("edges");
   edges.allowOnly({"window_low_percentile", "window_high_percentile", "clahe", "clahe_clip_limit",

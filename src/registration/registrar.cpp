@@ -349,10 +349,10 @@ void RegistrationSettings::validate() const {
     }
   }
   if (!(mirror_check.cost_tolerance >= 0.0) || !(mirror_check.min_difference_deg >= 0.0) ||
-      mirror_check.outer_iterations < 1) {
+      mirror_check.outer_iterations < 1 || mirror_check.solver_iterations < 1) {
     throw InputError(
-        "registration: mirror_check needs cost_tolerance >= 0, min_difference_deg >= 0 and "
-        "outer_iterations >= 1");
+        "registration: mirror_check needs cost_tolerance >= 0, min_difference_deg >= 0, "
+        "outer_iterations >= 1 and solver_iterations >= 1");
   }
   edges.validate();
   quality.validate();
@@ -602,7 +602,9 @@ RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
         options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
         // A handful of unknowns against thousands of residuals: the 6n x 6n normal equations.
         options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-        options.max_num_iterations = stage.solver_iterations;
+        options.max_num_iterations =
+            reuse_maps ? std::min(stage.solver_iterations, settings_.mirror_check.solver_iterations)
+                       : stage.solver_iterations;
         options.num_threads = 1;
         options.logging_type = ceres::SILENT;
         ceres::Solver::Summary summary;

@@ -671,6 +671,10 @@ int main(int argc, char** argv) {
       po::value(&settings.mirror_check.outer_iterations)
           ->default_value(settings.mirror_check.outer_iterations),
       "outer iterations of the mirror's solve")(
+      "mirror-solver-iterations",
+      po::value(&settings.mirror_check.solver_iterations)
+          ->default_value(settings.mirror_check.solver_iterations),
+      "Levenberg-Marquardt iterations per outer iteration of the mirror's solve")(
       "clahe", po::value(&settings.edges.clahe)->default_value(settings.edges.clahe),
       "contrast-limited adaptive equalisation of each edge map's grey levels (true/false)")(
       "clahe-clip-limit",

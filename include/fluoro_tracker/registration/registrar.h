@@ -52,6 +52,10 @@ struct MirrorCheckSettings {
   double cost_tolerance = 0.1;
   double min_difference_deg = 1.0;  // mirrors nearer the solution than this are not tried
   int outer_iterations = 2;         // of the mirror's solve (finest scale, each stage)
+  // Levenberg-Marquardt iterations per outer iteration of the mirror's solve: it starts with
+  // the parent converged. 4 instead of 8 measured the same success (standard and crude
+  // protocols) at 42 instead of 47 ms; 2 lost accuracy.
+  int solver_iterations = 4;
   // Also try the child turned about its long axis to the mirror of its turn relative to the
   // beam (turnReflectedAcrossBeam), a second solve.
   bool turn_reflection = true;

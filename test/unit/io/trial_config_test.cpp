@@ -199,12 +199,14 @@ registration:
   outer_iterations: 6
   robust_scale_px: 3.0
   edges: {clahe: true, canny_high: 60}
-  mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, turn_reflection: false}
+  mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, solver_iterations: 5,
+                 turn_reflection: false}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_FALSE(c.registration.mirror_check.enabled);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.cost_tolerance, 0.2);
   EXPECT_EQ(c.registration.mirror_check.outer_iterations, 3);
+  EXPECT_EQ(c.registration.mirror_check.solver_iterations, 5);
   EXPECT_FALSE(c.registration.mirror_check.turn_reflection);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_difference_deg,
                    registration::MirrorCheckSettings().min_difference_deg);
@@ -279,6 +281,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_difference_deg,
                    d.mirror_check.min_difference_deg);
   EXPECT_EQ(c.registration.mirror_check.outer_iterations, d.mirror_check.outer_iterations);
+  EXPECT_EQ(c.registration.mirror_check.solver_iterations, d.mirror_check.solver_iterations);
   EXPECT_EQ(c.registration.mirror_check.turn_reflection, d.mirror_check.turn_reflection);
   ASSERT_EQ(c.joints.size(), 1u);
   const constraints::ContactSettings contact;
