@@ -208,6 +208,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "converged_rotation_rad",
                      "edge_offset_model",
                      "edge_offset_prior_px",
+                     "edge_offset_hold",
                      "contact_from_outer_iteration",
                      "stages",
                      "edges",
@@ -244,6 +245,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   std::string edge_offset_model = registration::edgeOffsetModelName(r.edge_offset_model);
   section.read("edge_offset_model", &edge_offset_model);
   section.read("edge_offset_prior_px", &r.edge_offset_prior_px);
+  section.read("edge_offset_hold", &r.edge_offset_hold);
   section.read("contact_from_outer_iteration", &r.contact_from_outer_iteration);
   if (const YAML::Node stages = node["stages"]) {
     if (!stages.IsSequence()) throw InputError(context + ".stages must be a list");

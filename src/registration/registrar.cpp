@@ -534,11 +534,12 @@ RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
                 new ContourDistanceCost(&maps[v], std::move(points), std::move(offset_directions),
                                         centres[b], robust_scale, image_weight),
                 nullptr, increments[b].data(), offset);
-            // The offset is a fraction of a pixel: it is free only once the contour is that
-            // close (see EdgeOffsetModel).
+            // The offset is a fraction of a pixel: held, it is free only once the contour is
+            // that close (see edge_offset_hold).
             const bool offset_free =
                 settings_.edge_offset_model != RegistrationSettings::EdgeOffsetModel::kNone &&
-                settings_.edge_offset_prior_px > 0.0 && finest && outer >= 1;
+                settings_.edge_offset_prior_px > 0.0 &&
+                (!settings_.edge_offset_hold || (finest && outer >= 1));
             if (offset_free) {
               problem.AddResidualBlock(
                   new EdgeOffsetPrior(1.0 / (settings_.edge_offset_prior_px * scale)), nullptr,

@@ -688,6 +688,10 @@ int main(int argc, char** argv) {
       "edge-offset-prior-px",
       po::value(&settings.edge_offset_prior_px)->default_value(settings.edge_offset_prior_px),
       "prior sigma of each bone's edge offset, pixels")(
+      "edge-offset-hold",
+      po::value(&settings.edge_offset_hold)->default_value(settings.edge_offset_hold),
+      "hold the edge offset at zero until the finest scale's second outer iteration "
+      "(true/false)")(
       "staged",
       "the dissertation's Dataset B schedule: 2 outer iterations of image (femur weighted 2:1) "
       "and ligaments without contact, then 4 with every term")(

@@ -80,12 +80,16 @@ struct RegistrationSettings {
   // the beam. kUniform estimates one offset per bone and view (pixels, + inward) along the
   // contour normals, with a zero-mean prior of edge_offset_prior_px; kNone compares the
   // geometric silhouette as it is. Measured (benchmark, 100 frames): out-of-plane RMS 4.8 mm
-  // with kNone, 2.0 mm with kUniform. The offset is held at zero (or its value carried from
-  // earlier) until the finest scale's second outer iteration: while the contour is still pixels
-  // away, a free offset fits it to whatever edges lie nearby and the pose follows.
+  // with kNone, 2.0 mm with kUniform.
   enum class EdgeOffsetModel { kNone, kUniform };
   EdgeOffsetModel edge_offset_model = EdgeOffsetModel::kUniform;
   double edge_offset_prior_px = 0.5;  // full-resolution pixels
+  // Hold the offset at zero until the finest scale's second outer iteration: while the contour
+  // is still pixels away, a free offset fits it to whatever edges lie nearby and the pose
+  // follows. Measured (benchmark, contact + ligaments): crude starts 78 -> 86 % success, poor
+  // images 78 -> 81 %; standard starts unchanged at 95 %, image only 82 -> 87 %. The automatic
+  // search's one-bone refinement turns it off (40 frames: 75 % without, 70 % with).
+  bool edge_offset_hold = true;
   // Contact penalties join at this outer iteration of the finest scale (0: from the start).
   int contact_from_outer_iteration = 1;
   // Staged schedule. Empty: one stage of outer_iterations x solver_iterations with every term

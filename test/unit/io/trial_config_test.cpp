@@ -198,6 +198,7 @@ registration:
   scales: [0.5, 1.0]
   outer_iterations: 6
   robust_scale_px: 3.0
+  edge_offset_hold: false
   edges: {clahe: true, canny_high: 60}
   mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, solver_iterations: 5,
                  turn_reflection: false}
@@ -213,6 +214,7 @@ registration:
   EXPECT_EQ(c.registration.scales, (std::vector<double>{0.5, 1.0}));
   EXPECT_EQ(c.registration.outer_iterations, 6);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, 3.0);
+  EXPECT_FALSE(c.registration.edge_offset_hold);
   EXPECT_TRUE(c.registration.edges.clahe);
   EXPECT_DOUBLE_EQ(c.registration.edges.canny_high, 60.0);
   EXPECT_EQ(c.registration.solver_iterations,
@@ -275,6 +277,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.registration.edges.line_distance_band_px, d.edges.line_distance_band_px);
   EXPECT_EQ(c.registration.edge_offset_model, d.edge_offset_model);
   EXPECT_DOUBLE_EQ(c.registration.edge_offset_prior_px, d.edge_offset_prior_px);
+  EXPECT_EQ(c.registration.edge_offset_hold, d.edge_offset_hold);
   EXPECT_EQ(c.registration.contact_from_outer_iteration, d.contact_from_outer_iteration);
   EXPECT_EQ(c.registration.mirror_check.enabled, d.mirror_check.enabled);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.cost_tolerance, d.mirror_check.cost_tolerance);

@@ -120,6 +120,31 @@ TEST(Registrar, ContactRelievesPenetrationAndIsReported) {
   for (const auto& per_view : result.edge_offsets_px) EXPECT_LT(std::abs(per_view[0]), 1.5);
 }
 
+// The edge offset is held at zero while the contour may still be pixels off: with a single
+// outer iteration it never becomes free; without the hold it is estimated from the start.
+TEST(Registrar, EdgeOffsetIsHeldUntilTheSecondOuterIteration) {
+  const Scene scene;
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const std::vector<Pose> start = {offset(truth[0], {0.001, -0.001, 0.002}, {0.02, -0.02, 0.02}),
+                                   offset(truth[1], {-0.001, 0.001, -0.002}, {-0.02, 0.02, 0.0})};
+  const std::vector<registration::ViewImage> views = {
+      {scene.frame.images[0], scene.simulator.views()[0].camera}};
+  registration::RegistrationSettings settings;
+  settings.outer_iterations = 1;
+  settings.mirror_check.enabled = false;
+  const auto held = registration::Registrar(scene.bones, settings).solve(views, start);
+  settings.edge_offset_hold = false;
+  const auto free = registration::Registrar(scene.bones, settings).solve(views, start);
+  ASSERT_EQ(held.edge_offsets_px.size(), 2u);
+  ASSERT_EQ(free.edge_offsets_px.size(), 2u);
+  double largest_free = 0.0;
+  for (int b = 0; b < 2; ++b) {
+    EXPECT_EQ(held.edge_offsets_px[b][0], 0.0) << scene.bones[b].name;
+    largest_free = std::max(largest_free, std::abs(free.edge_offsets_px[b][0]));
+  }
+  EXPECT_GT(largest_free, 0.01);
+}
+
 // Ligament springs act only outside the joint's envelope: a registration result inside the knee
 // defaults is left unchanged by them. Solved from that result with and without the springs, the
 // answers are identical. (From a perturbed start they may differ: trial steps along the beam,
