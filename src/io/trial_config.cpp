@@ -209,6 +209,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "edge_offset_model",
                      "edge_offset_prior_px",
                      "edge_offset_hold",
+                     "edge_offset_tracking",
                      "contact_from_outer_iteration",
                      "stages",
                      "edges",
@@ -246,6 +247,11 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("edge_offset_model", &edge_offset_model);
   section.read("edge_offset_prior_px", &r.edge_offset_prior_px);
   section.read("edge_offset_hold", &r.edge_offset_hold);
+  const YamlSection offset_tracking = section.child("edge_offset_tracking");
+  offset_tracking.allowOnly({"enabled", "frame_sd_px", "drift_px"});
+  offset_tracking.read("enabled", &r.edge_offset_tracking.enabled);
+  offset_tracking.read("frame_sd_px", &r.edge_offset_tracking.frame_sd_px);
+  offset_tracking.read("drift_px", &r.edge_offset_tracking.drift_px);
   section.read("contact_from_outer_iteration", &r.contact_from_outer_iteration);
   if (const YAML::Node stages = node["stages"]) {
     if (!stages.IsSequence()) throw InputError(context + ".stages must be a list");

@@ -139,18 +139,20 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
   return pairs;
 }
 
-// Zero-mean Gaussian prior on an edge offset: residual offset / sigma.
-class EdgeOffsetPrior : public ceres::SizedCostFunction<1, 1> {
+// Gaussian prior on an edge offset: residual (offset - mean) / sigma.
+class EdgeOffsetPriorCost : public ceres::SizedCostFunction<1, 1> {
  public:
-  explicit EdgeOffsetPrior(double inverse_sigma) : inverse_sigma_(inverse_sigma) {}
+  EdgeOffsetPriorCost(double mean, double inverse_sigma)
+      : mean_(mean), inverse_sigma_(inverse_sigma) {}
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
-    residuals[0] = inverse_sigma_ * parameters[0][0];
+    residuals[0] = inverse_sigma_ * (parameters[0][0] - mean_);
     if (jacobians != nullptr && jacobians[0] != nullptr) jacobians[0][0] = inverse_sigma_;
     return true;
   }
 
  private:
+  double mean_;
   double inverse_sigma_;
 };
 
@@ -331,6 +333,9 @@ void RegistrationSettings::validate() const {
   if (!(edge_offset_prior_px >= 0.0)) {
     throw InputError("registration: edge_offset_prior_px must be >= 0");
   }
+  if (!(edge_offset_tracking.frame_sd_px > 0.0) || !(edge_offset_tracking.drift_px >= 0.0)) {
+    throw InputError("registration: edge_offset_tracking needs frame_sd_px > 0 and drift_px >= 0");
+  }
   if (contact_from_outer_iteration < 0) {
     throw InputError("registration: contact_from_outer_iteration must be >= 0");
   }
@@ -379,9 +384,24 @@ Registrar::Registrar(std::vector<BoneModel> bones, RegistrationSettings settings
 
 RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
                                     const std::vector<geometry::Pose>& initial_poses,
-                                    const std::vector<bool>& loaded) const {
+                                    const std::vector<bool>& loaded,
+                                    const EdgeOffsetPriors& offset_priors) const {
+  if (!offset_priors.empty()) {
+    bool valid = offset_priors.size() == bones_.size();
+    for (const auto& per_view : offset_priors) {
+      valid = valid && per_view.size() == views.size();
+      for (const EdgeOffsetPrior& prior : per_view) {
+        valid = valid && std::isfinite(prior.mean_px) && prior.sigma_px > 0.0;
+      }
+    }
+    if (!valid) {
+      throw InputError(
+          "registration: edge offset priors need one finite mean and positive sigma per bone "
+          "and view");
+    }
+  }
   std::vector<imaging::EdgeMap> finest_maps;
-  RegistrationResult result = solveFrom(views, initial_poses, loaded, &finest_maps);
+  RegistrationResult result = solveFrom(views, initial_poses, loaded, offset_priors, &finest_maps);
   // A second view sees the mirror from another side: only single views are ambiguous.
   if (!settings_.mirror_check.enabled || views.size() != 1) return result;
   const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();
@@ -410,7 +430,7 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
       std::vector<geometry::Pose> starts = result.poses;
       starts[joint.child] = camera_from_fixed.inverse() * candidate;
       // The mirror differs from the solution in rotation only: the finest scale's maps serve.
-      RegistrationResult mirror = solveFrom(views, starts, loaded, &finest_maps);
+      RegistrationResult mirror = solveFrom(views, starts, loaded, offset_priors, &finest_maps);
       evaluations += mirror.cost_evaluations;
       solver_iterations += mirror.solver_iterations;
       outer_iterations += mirror.outer_iterations;
@@ -436,6 +456,7 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
 RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
                                         const std::vector<geometry::Pose>& initial_poses,
                                         const std::vector<bool>& loaded,
+                                        const EdgeOffsetPriors& offset_priors,
                                         std::vector<imaging::EdgeMap>* finest_maps) const {
   if (views.empty()) throw InputError("registration: no views");
   if (initial_poses.size() != bones_.size()) {
@@ -468,6 +489,20 @@ RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
   const std::vector<RegistrationStage> schedule = settings_.schedule();
   const bool reuse_maps = finest_maps != nullptr && !finest_maps->empty();
   if (reuse_maps) previous_scale = settings_.scales.back();
+  const bool with_offsets =
+      settings_.edge_offset_model != RegistrationSettings::EdgeOffsetModel::kNone;
+  const auto prior_of = [&](std::size_t b, std::size_t v) {
+    EdgeOffsetPrior prior;
+    prior.sigma_px = settings_.edge_offset_prior_px;
+    return offset_priors.empty() ? prior : offset_priors[b][v];
+  };
+  if (with_offsets) {
+    for (std::size_t b = 0; b < bones_.size(); ++b) {
+      for (std::size_t v = 0; v < views.size(); ++v) {
+        offsets[b][v] = prior_of(b, v).mean_px * previous_scale;
+      }
+    }
+  }
   std::vector<imaging::EdgeMap> maps;  // of the current scale; the finest one at the end
   for (std::size_t scale_index = reuse_maps ? settings_.scales.size() - 1 : 0;
        scale_index < settings_.scales.size(); ++scale_index) {
@@ -536,14 +571,13 @@ RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
                 nullptr, increments[b].data(), offset);
             // The offset is a fraction of a pixel: held, it is free only once the contour is
             // that close (see edge_offset_hold).
-            const bool offset_free =
-                settings_.edge_offset_model != RegistrationSettings::EdgeOffsetModel::kNone &&
-                settings_.edge_offset_prior_px > 0.0 &&
-                (!settings_.edge_offset_hold || (finest && outer >= 1));
+            const EdgeOffsetPrior prior = prior_of(b, v);
+            const bool offset_free = with_offsets && prior.sigma_px > 0.0 &&
+                                     (!settings_.edge_offset_hold || (finest && outer >= 1));
             if (offset_free) {
               problem.AddResidualBlock(
-                  new EdgeOffsetPrior(1.0 / (settings_.edge_offset_prior_px * scale)), nullptr,
-                  offset);
+                  new EdgeOffsetPriorCost(prior.mean_px * scale, 1.0 / (prior.sigma_px * scale)),
+                  nullptr, offset);
             } else {
               problem.SetParameterBlockConstant(offset);
             }

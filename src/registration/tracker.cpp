@@ -10,7 +10,12 @@ namespace registration {
 
 Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometry::Pose> initial,
                  std::shared_ptr<const PoseSearch> search)
-    : registrar_(std::move(registrar)), search_(std::move(search)), poses_(std::move(initial)) {
+    : registrar_(std::move(registrar)),
+      search_(std::move(search)),
+      poses_(std::move(initial)),
+      edge_offsets_(
+          registrar_ ? registrar_->settings().edge_offset_tracking : EdgeOffsetTrackingSettings(),
+          registrar_ ? registrar_->settings().edge_offset_prior_px : 0.0) {
   if (!registrar_) throw InputError("tracker: no registrar");
   if (poses_.empty() && !search_) {
     throw InputError("tracker: no initial poses and no automatic search to find them");
@@ -91,6 +96,9 @@ void Tracker::accept(TrackedFrame* frame) {
   }
   const bool any_lost =
       std::find(frame->status.begin(), frame->status.end(), "lost") != frame->status.end();
+  std::vector<bool> usable(frame->status.size());
+  for (std::size_t b = 0; b < usable.size(); ++b) usable[b] = frame->status[b] != "lost";
+  edge_offsets_.update(frame->result.edge_offsets_px, usable);
   // Velocity only from two good frames in a row; a lost bone restarts from its last good pose.
   previous_ = all_ok && !first && !frame->searched ? poses_ : std::vector<geometry::Pose>();
   if (!first || !any_lost) poses_ = frame->poses;
@@ -131,8 +139,9 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
   // ambiguity (see MirrorCheckSettings), which that registration (or the search) chose: the
   // motion so far is better evidence than the neutral-joint rule. Poses given by the user (the
   // first frame, reinitialize) are checked.
-  frame.result =
-      (poses_registered_ ? continuing_registrar_ : registrar_)->solve(views, guess, loaded);
+  frame.result = (poses_registered_ ? continuing_registrar_ : registrar_)
+                     ->solve(views, guess, loaded,
+                             edge_offsets_.priors(registrar_->bones().size(), views.size()));
   frame.solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   frame.poses = frame.result.poses;

@@ -61,6 +61,15 @@ struct MirrorCheckSettings {
   bool turn_reflection = true;
 };
 
+// Tracking (EdgeOffsetFilter): each bone's edge offset carried from frame to frame as a prior.
+struct EdgeOffsetTrackingSettings {
+  bool enabled = true;
+  // Standard deviation of one frame's estimate (benchmark: 0.04-0.24 px within a trial).
+  double frame_sd_px = 0.15;
+  // How much the true offset may change from one frame to the next.
+  double drift_px = 0.005;
+};
+
 struct RegistrationSettings {
   // Coarse-to-fine image scales. Full resolution alone measured best for starts within
   // +-2 mm / 3 deg (benchmark); add coarser scales (e.g. 0.5) for cruder starts.
@@ -90,6 +99,7 @@ struct RegistrationSettings {
   // images 78 -> 81 %; standard starts unchanged at 95 %, image only 82 -> 87 %. The automatic
   // search's one-bone refinement turns it off (40 frames: 75 % without, 70 % with).
   bool edge_offset_hold = true;
+  EdgeOffsetTrackingSettings edge_offset_tracking;
   // Contact penalties join at this outer iteration of the finest scale (0: from the start).
   int contact_from_outer_iteration = 1;
   // Staged schedule. Empty: one stage of outer_iterations x solver_iterations with every term
@@ -168,6 +178,15 @@ struct JointResult {
   constraints::ContactFigures contact;
 };
 
+// A Gaussian prior on one bone's edge offset in one view (RegistrationSettings::
+// EdgeOffsetModel), in full-resolution pixels: e.g. a tracker's estimate from earlier frames.
+struct EdgeOffsetPrior {
+  double mean_px = 0.0;
+  double sigma_px = 0.5;
+};
+// Per bone and view.
+using EdgeOffsetPriors = std::vector<std::vector<EdgeOffsetPrior>>;
+
 struct RegistrationResult {
   std::vector<geometry::Pose> poses;  // per bone, in the fixed frame
   double final_cost = 0.0;
@@ -209,10 +228,12 @@ class Registrar {
 
   // Throws InputError for a wrong number of poses, no views, non-finite poses, or bad images.
   // `loaded`: per joint, whether it is known to be loaded in this frame (its loaded_contact
-  // term then joins); empty: none is.
+  // term then joins); empty: none is. `offset_priors` (per bone and view; empty: the settings'
+  // zero-mean edge_offset_prior_px) start each edge offset at its mean and hold it near it.
   RegistrationResult solve(const std::vector<ViewImage>& views,
                            const std::vector<geometry::Pose>& initial_poses,
-                           const std::vector<bool>& loaded = {}) const;
+                           const std::vector<bool>& loaded = {},
+                           const EdgeOffsetPriors& offset_priors = {}) const;
 
  private:
   // One registration from these starts (solve is this plus the mirror check). `finest_maps`
@@ -221,6 +242,7 @@ class Registrar {
   RegistrationResult solveFrom(const std::vector<ViewImage>& views,
                                const std::vector<geometry::Pose>& initial_poses,
                                const std::vector<bool>& loaded,
+                               const EdgeOffsetPriors& offset_priors,
                                std::vector<imaging::EdgeMap>* finest_maps = nullptr) const;
 
   std::vector<BoneModel> bones_;

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "fluoro_tracker/geometry/pose.h"
+#include "fluoro_tracker/registration/edge_offset_filter.h"
 #include "fluoro_tracker/registration/pose_search.h"
 #include "fluoro_tracker/registration/registrar.h"
 
@@ -80,6 +81,7 @@ class Tracker {
   std::vector<geometry::Pose> poses_;     // last good pose per bone
   std::vector<geometry::Pose> previous_;  // the good poses one frame earlier (empty: none)
   bool poses_registered_ = false;         // poses_ come from a registration, not the user
+  EdgeOffsetFilter edge_offsets_;         // each bone's edge offset, carried between frames
 };
 
 }  // namespace registration

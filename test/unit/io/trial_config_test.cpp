@@ -199,6 +199,7 @@ registration:
   outer_iterations: 6
   robust_scale_px: 3.0
   edge_offset_hold: false
+  edge_offset_tracking: {enabled: false, frame_sd_px: 0.3, drift_px: 0.05}
   edges: {clahe: true, canny_high: 60}
   mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, solver_iterations: 5,
                  turn_reflection: false}
@@ -215,6 +216,9 @@ registration:
   EXPECT_EQ(c.registration.outer_iterations, 6);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, 3.0);
   EXPECT_FALSE(c.registration.edge_offset_hold);
+  EXPECT_FALSE(c.registration.edge_offset_tracking.enabled);
+  EXPECT_DOUBLE_EQ(c.registration.edge_offset_tracking.frame_sd_px, 0.3);
+  EXPECT_DOUBLE_EQ(c.registration.edge_offset_tracking.drift_px, 0.05);
   EXPECT_TRUE(c.registration.edges.clahe);
   EXPECT_DOUBLE_EQ(c.registration.edges.canny_high, 60.0);
   EXPECT_EQ(c.registration.solver_iterations,

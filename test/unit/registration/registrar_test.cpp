@@ -145,6 +145,29 @@ TEST(Registrar, EdgeOffsetIsHeldUntilTheSecondOuterIteration) {
   EXPECT_GT(largest_free, 0.01);
 }
 
+// A prior on a bone's edge offset (e.g. a tracker's estimate from earlier frames) starts the
+// offset at its mean and holds it there when it is tight; a malformed one is refused.
+TEST(Registrar, EdgeOffsetPriorsAreHonoured) {
+  const Scene scene;
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const std::vector<registration::ViewImage> views = {
+      {scene.frame.images[0], scene.simulator.views()[0].camera}};
+  registration::RegistrationSettings settings;
+  settings.mirror_check.enabled = false;
+  const registration::Registrar registrar(scene.bones, settings);
+  registration::EdgeOffsetPriors priors(2, std::vector<registration::EdgeOffsetPrior>(1));
+  priors[0][0] = {0.4, 1e-3};
+  priors[1][0] = {-0.3, 1e-3};
+  const auto result = registrar.solve(views, truth, {}, priors);
+  ASSERT_EQ(result.edge_offsets_px.size(), 2u);
+  EXPECT_NEAR(result.edge_offsets_px[0][0], 0.4, 0.01);
+  EXPECT_NEAR(result.edge_offsets_px[1][0], -0.3, 0.01);
+  priors[1][0].sigma_px = 0.0;
+  EXPECT_THROW_WITH(registrar.solve(views, truth, {}, priors), "edge offset priors");
+  priors.pop_back();
+  EXPECT_THROW_WITH(registrar.solve(views, truth, {}, priors), "edge offset priors");
+}
+
 // Ligament springs act only outside the joint's envelope: a registration result inside the knee
 // defaults is left unchanged by them. Solved from that result with and without the springs, the
 // answers are identical. (From a perturbed start they may differ: trial steps along the beam,
