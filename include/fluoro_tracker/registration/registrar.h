@@ -45,8 +45,8 @@ struct RegistrationStage {
 // (neutralDeviation, in units of the joint's ligament bounds, which are the knee's defaults
 // when the joint has no springs). The assumption: of poses the image cannot tell apart, the
 // knee's varus-valgus and axial rotation are the smallest. Measured (benchmark, contact +
-// ligaments): success 92 -> 95 % under the standard protocol, 70 -> 78 % from crude starts,
-// 66 -> 78 % on poor images; the median time per frame rises from 27 to 49 ms (two solves).
+// ligaments): success 92 -> 95 % under the standard protocol, 78 -> 86 % from crude starts,
+// 70 -> 81 % on poor images; the median time per frame rises from 27 to 48 ms (two solves).
 struct MirrorCheckSettings {
   bool enabled = true;
   double cost_tolerance = 0.1;
