@@ -25,11 +25,9 @@ class EdgeOffsetFilter {
 
   // Takes a frame's estimates (per bone and view, as in RegistrationResult::edge_offsets_px),
   // registered with priors(): the estimate is the new mean, and the variance shrinks as one
-  // frame's measurement would shrink it. Bones with `usable` false keep their belief.
+  // frame's measurement would shrink it. Bones with `usable` false (lost) keep their belief,
+  // widened by the frame's drift.
   void update(const std::vector<std::vector<double>>& offsets_px, const std::vector<bool>& usable);
-
-  // Forgets every estimate.
-  void reset() { beliefs_.clear(); }
 
  private:
   EdgeOffsetTrackingSettings settings_;
