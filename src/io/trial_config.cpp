@@ -196,6 +196,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   const YamlSection section(node, context);
   section.allowOnly({"scales",
                      "outer_iterations",
+                     "coarse_outer_iterations",
                      "solver_iterations",
                      "contour_spacing_px",
                      "robust_scale_px",
@@ -233,6 +234,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   quality.read("suspect_rotation_sd_deg", &r.quality.suspect_rotation_sd_deg);
   section.read("scales", &r.scales);
   section.read("outer_iterations", &r.outer_iterations);
+  section.read("coarse_outer_iterations", &r.coarse_outer_iterations);
   section.read("solver_iterations", &r.solver_iterations);
   section.read("contour_spacing_px", &r.contour_spacing_px);
   section.read("robust_scale_px", &r.robust_scale_px);

@@ -527,9 +527,12 @@ RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
     for (std::size_t stage_index = 0; stage_index < (finest ? schedule.size() : 1); ++stage_index) {
       const RegistrationStage& stage = schedule[stage_index];
       // A mirror check's solve starts converged but for the mirrored rotation.
-      const int outer_iterations =
+      int outer_iterations =
           reuse_maps ? std::min(stage.outer_iterations, settings_.mirror_check.outer_iterations)
                      : stage.outer_iterations;
+      if (!finest && settings_.coarse_outer_iterations > 0) {
+        outer_iterations = settings_.coarse_outer_iterations;
+      }
       for (int outer = 0; outer < outer_iterations; ++outer) {
         ++result.outer_iterations;
         std::vector<std::array<double, 6>> increments(bones_.size(), std::array<double, 6>{});

@@ -195,8 +195,9 @@ TEST(TrialConfig, RegistrationSectionFillsTheSettingsAndRejectsTypos) {
 bones:
   - {name: femur, mesh: f.stl}
 registration:
-  scales: [0.5, 1.0]
+  scales: [0.25, 1.0]
   outer_iterations: 6
+  coarse_outer_iterations: 3
   robust_scale_px: 3.0
   edge_offset_hold: false
   edge_offset_tracking: {enabled: false, frame_sd_px: 0.3, drift_px: 0.05}
@@ -212,8 +213,9 @@ registration:
   EXPECT_FALSE(c.registration.mirror_check.turn_reflection);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_difference_deg,
                    registration::MirrorCheckSettings().min_difference_deg);
-  EXPECT_EQ(c.registration.scales, (std::vector<double>{0.5, 1.0}));
+  EXPECT_EQ(c.registration.scales, (std::vector<double>{0.25, 1.0}));
   EXPECT_EQ(c.registration.outer_iterations, 6);
+  EXPECT_EQ(c.registration.coarse_outer_iterations, 3);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, 3.0);
   EXPECT_FALSE(c.registration.edge_offset_hold);
   EXPECT_FALSE(c.registration.edge_offset_tracking.enabled);

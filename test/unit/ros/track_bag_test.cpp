@@ -46,8 +46,8 @@ struct Trial {
     for (int i = 0; i < frames; ++i) {
       const auto frame = simulator.render(i, &rng);
       writer.write(frame);
-      truth.push_back({i, frame.stamp_s, "femur", frame.femur, "ok"});
-      truth.push_back({i, frame.stamp_s, "tibia", frame.tibia, "ok"});
+      truth.push_back({i, frame.stamp_s, "femur", frame.femur, "ok", std::nullopt});
+      truth.push_back({i, frame.stamp_s, "tibia", frame.tibia, "ok", std::nullopt});
     }
     writer.close();
     io::writePosesCsv(dir.file("truth.csv"), truth);
