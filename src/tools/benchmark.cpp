@@ -651,8 +651,7 @@ int main(int argc, char** argv) {
       po::value(&settings.outer_iterations)->default_value(settings.outer_iterations),
       "silhouette re-extractions per scale")(
       "coarse-outer-iterations",
-      po::value(&settings.coarse_outer_iterations)
-          ->default_value(settings.coarse_outer_iterations),
+      po::value(&settings.coarse_outer_iterations)->default_value(settings.coarse_outer_iterations),
       "outer iterations at each scale coarser than the finest (0: as --outer-iterations)")(
       "solver-iterations",
       po::value(&settings.solver_iterations)->default_value(settings.solver_iterations),
