@@ -197,6 +197,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.allowOnly({"scales",
                      "outer_iterations",
                      "coarse_outer_iterations",
+                     "tracking_scales",
                      "solver_iterations",
                      "contour_spacing_px",
                      "robust_scale_px",
@@ -235,6 +236,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("scales", &r.scales);
   section.read("outer_iterations", &r.outer_iterations);
   section.read("coarse_outer_iterations", &r.coarse_outer_iterations);
+  section.read("tracking_scales", &r.tracking_scales);
   section.read("solver_iterations", &r.solver_iterations);
   section.read("contour_spacing_px", &r.contour_spacing_px);
   section.read("robust_scale_px", &r.robust_scale_px);

@@ -320,9 +320,12 @@ std::vector<RegistrationStage> RegistrationSettings::schedule() const {
 }
 
 void RegistrationSettings::validate() const {
-  if (scales.empty()) throw InputError("registration: scales must not be empty");
-  for (double s : scales) {
-    if (!(s > 0.0 && s <= 1.0)) throw InputError("registration: scales must be in (0, 1]");
+  for (const auto* list : {&scales, &tracking_scales}) {
+    const std::string name = list == &scales ? "scales" : "tracking_scales";
+    if (list->empty()) throw InputError("registration: " + name + " must not be empty");
+    for (double s : *list) {
+      if (!(s > 0.0 && s <= 1.0)) throw InputError("registration: " + name + " must be in (0, 1]");
+    }
   }
   if (outer_iterations < 1 || solver_iterations < 1) {
     throw InputError("registration: outer_iterations and solver_iterations must be >= 1");

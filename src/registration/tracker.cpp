@@ -31,11 +31,13 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
     }
   }
   continuing_registrar_ = registrar_;
-  if (registrar_->settings().mirror_check.enabled) {
-    RegistrationSettings settings = registrar_->settings();
-    settings.mirror_check.enabled = false;
+  const RegistrationSettings& settings = registrar_->settings();
+  if (settings.mirror_check.enabled || settings.tracking_scales != settings.scales) {
+    RegistrationSettings continuing = settings;
+    continuing.mirror_check.enabled = false;
+    continuing.scales = settings.tracking_scales;
     continuing_registrar_ =
-        std::make_shared<const Registrar>(registrar_->bones(), settings, registrar_->joints());
+        std::make_shared<const Registrar>(registrar_->bones(), continuing, registrar_->joints());
   }
 }
 

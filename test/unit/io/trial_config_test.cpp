@@ -198,6 +198,7 @@ registration:
   scales: [0.25, 1.0]
   outer_iterations: 6
   coarse_outer_iterations: 3
+  tracking_scales: [0.5, 1.0]
   robust_scale_px: 3.0
   edge_offset_hold: false
   edge_offset_tracking: {enabled: false, frame_sd_px: 0.3, drift_px: 0.05}
@@ -216,6 +217,7 @@ registration:
   EXPECT_EQ(c.registration.scales, (std::vector<double>{0.25, 1.0}));
   EXPECT_EQ(c.registration.outer_iterations, 6);
   EXPECT_EQ(c.registration.coarse_outer_iterations, 3);
+  EXPECT_EQ(c.registration.tracking_scales, (std::vector<double>{0.5, 1.0}));
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, 3.0);
   EXPECT_FALSE(c.registration.edge_offset_hold);
   EXPECT_FALSE(c.registration.edge_offset_tracking.enabled);
@@ -256,6 +258,11 @@ registration:
       dir.file("bad.yaml"),
       "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {scales: [2.0]}\n");
   EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad.yaml")), "scales must be in (0, 1]");
+  test_support::writeText(
+      dir.file("bad_tracking.yaml"),
+      "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {tracking_scales: []}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_tracking.yaml")),
+                    "tracking_scales must not be empty");
   test_support::writeText(dir.file("bad_mirror.yaml"),
                           "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {mirror_check: "
                           "{cost_tolerance: -0.1}}\n");
@@ -269,6 +276,8 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_FALSE(c.bones[1].articular_mesh.empty());
   const registration::RegistrationSettings d;
   EXPECT_EQ(c.registration.scales, d.scales);
+  EXPECT_EQ(c.registration.coarse_outer_iterations, d.coarse_outer_iterations);
+  EXPECT_EQ(c.registration.tracking_scales, d.tracking_scales);
   EXPECT_EQ(c.registration.outer_iterations, d.outer_iterations);
   EXPECT_EQ(c.registration.solver_iterations, d.solver_iterations);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, d.robust_scale_px);
