@@ -743,8 +743,6 @@ int main(int argc, char** argv) {
     } else if (protocol == "crude") {
       perturbation.crude = true;
       settings.scales = {0.25, 0.5, 1.0};
-      // Crude starts need every coarse scale's full outer iterations (2: 82 instead of 86 %).
-      if (vm["coarse-outer-iterations"].defaulted()) settings.coarse_outer_iterations = 0;
       settings.max_translation_from_start_m = 0.08;  // the tibia may start 50 mm off
     } else if (protocol != "standard") {
       throw InputError("--protocol must be standard, crude or search, not '" + protocol + "'");

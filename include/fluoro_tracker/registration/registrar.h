@@ -80,9 +80,8 @@ struct RegistrationSettings {
   int outer_iterations = 4;  // silhouettes re-extracted at the new poses each time
   // Outer iterations at each scale coarser than the finest; <= 0: outer_iterations. Two
   // instead of four measured nearly the same from +-2 mm / 3 deg starts (benchmark 89/96/96 %
-  // vs 90/96/96 %; Kneel 57/60 both) and track about a fifth faster, but lose 4 points from
-  // crude starts: set 0 (or 4) with the scales for crude starts.
-  int coarse_outer_iterations = 2;
+  // against 90/96/96 %, 2-3 ms faster) but lost 4 points from crude starts.
+  int coarse_outer_iterations = 0;
   // Scales for frames the tracker starts from the previous frame's registration. Those start
   // with each bone's edge offset carried from earlier frames, so the slide above does not
   // happen; full resolution alone tracked the same frames (robustness trials) and keeps the

@@ -14,8 +14,9 @@ TEST(PosesCsv, RoundTripKeepsEveryField) {
       {0, 100.0, "femur",
        geometry::makePose(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY())),
                           Eigen::Vector3d(0.01, -0.02, 0.95)),
-       "ok"});
-  records.push_back({1, 100.033333333, "tibia", geometry::Pose::Identity(), "suspect"});
+       "ok", std::nullopt});
+  records.push_back(
+      {1, 100.033333333, "tibia", geometry::Pose::Identity(), "suspect", std::nullopt});
   io::writePosesCsv(dir.file("p.csv"), records);
 
   std::ifstream in(dir.file("p.csv"));
@@ -60,6 +61,7 @@ TEST(PosesCsv, BadInputNamesTheProblem) {
   EXPECT_THROW_WITH(io::readPosesCsv(dir.file("s.csv")), "status 'great'");
   geometry::Pose nan_pose = geometry::Pose::Identity();
   nan_pose.translation().x() = std::nan("");
-  EXPECT_THROW_WITH(io::writePosesCsv(dir.file("w.csv"), {{0, 0.0, "femur", nan_pose, "ok"}}),
-                    "non-finite pose");
+  EXPECT_THROW_WITH(
+      io::writePosesCsv(dir.file("w.csv"), {{0, 0.0, "femur", nan_pose, "ok", std::nullopt}}),
+      "non-finite pose");
 }
