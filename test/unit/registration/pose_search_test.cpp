@@ -5,15 +5,13 @@
 #include <string>
 
 #include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include "../test_support.h"
 #include "fluoro_tracker/imaging/edge_map.h"
 #include "fluoro_tracker/input_error.h"
-#include "fluoro_tracker/io/jointtrack_calibration.h"
-#include "fluoro_tracker/io/jts_file.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
+#include "kneel_study.h"
 #include "simulated_knee.h"
 
 using namespace fluoro_tracker;
@@ -166,41 +164,18 @@ TEST(PoseSearch, ABlankFrameIsReportedNotGuessed) {
 // femoral component's own region for every overall-best shape match; the search must still
 // try the component's region.
 TEST(PoseSearch, FindsBothComponentsOnTheRealKneelFrames) {
-  const std::string dir = test_support::sharedData("jointtrack_kneel/");
-  const auto calibration = io::readJointTrackCalibration(dir + "calibration.txt");
-  const geometry::Mesh femur = geometry::Mesh::load(dir + "KR_right_7_fem.stl");
-  const geometry::Mesh tibia = geometry::Mesh::load(dir + "KR_right_6_tib.stl");
-  const auto femur_poses = io::readJtsFile(dir + "fem.jts");
-  const auto tibia_poses = io::readJtsFile(dir + "tib.jts");
-  // The knee's envelope with flexion free: these meshes' medial-lateral axes point the other
-  // way, so their flexion comes out negative; no insert, so no contact.
-  registration::JointModel knee;
-  knee.name = "knee";
-  knee.parent = 0;
-  knee.child = 1;
-  knee.ligaments.bounds[0] = {-180.0, 180.0};
-  const auto registrar = std::make_shared<const registration::Registrar>(
-      std::vector<registration::BoneModel>{
-          {"femur", std::make_shared<imaging::SilhouetteModel>(femur), 1.0},
-          {"tibia", std::make_shared<imaging::SilhouetteModel>(tibia), 1.0}},
-      registration::RegistrationSettings(), std::vector<registration::JointModel>{knee});
-  const registration::PoseSearch search(registrar);
-  const std::vector<std::string> frames = {"0160", "0170", "0180"};
-  for (std::size_t f = 0; f < frames.size(); ++f) {
-    const cv::Mat image = cv::imread(dir + "AT_K1_V1_" + frames[f] + ".tif", cv::IMREAD_UNCHANGED);
-    ASSERT_FALSE(image.empty()) << frames[f];
-    const geometry::XrayCamera camera =
-        io::cameraFromJointTrack(calibration, image.cols, image.rows);
-    const std::vector<Pose> reference = {io::opticalFromJointTrack(*femur_poses[f]),
-                                         io::opticalFromJointTrack(*tibia_poses[f])};
+  const test_support::KneelStudy kneel;
+  const registration::PoseSearch search(kneel.registrar);
+  for (const auto& frame : kneel.frames) {
+    ASSERT_FALSE(frame.image.empty()) << frame.name;
     registration::PoseSearchResult found;
-    ASSERT_NO_THROW(found = search.search({{image, camera}})) << "frame " << frames[f];
+    ASSERT_NO_THROW(found = search.search({{frame.image, frame.camera}})) << "frame " << frame.name;
     for (int b = 0; b < 2; ++b) {
-      const auto e =
-          registration::poseError(found.registration.poses[b], reference[b], Pose::Identity());
+      const auto e = registration::poseError(found.registration.poses[b], frame.reference[b],
+                                             Pose::Identity());
       EXPECT_LE(std::hypot(e.translation_mm.x(), e.translation_mm.y()), 2.0)
-          << "frame " << frames[f] << ", bone " << b;
-      EXPECT_LE(e.rotation_deg.norm(), 3.0) << "frame " << frames[f] << ", bone " << b;
+          << "frame " << frame.name << ", bone " << b;
+      EXPECT_LE(e.rotation_deg.norm(), 3.0) << "frame " << frame.name << ", bone " << b;
     }
   }
 }

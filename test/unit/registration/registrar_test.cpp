@@ -1,17 +1,15 @@
 #include "fluoro_tracker/registration/registrar.h"
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "../test_support.h"
-#include "fluoro_tracker/io/jointtrack_calibration.h"
-#include "fluoro_tracker/io/jts_file.h"
 #include "fluoro_tracker/registration/contour_distance_cost.h"
 #include "fluoro_tracker/registration/frame_quality.h"
 #include "fluoro_tracker/registration/mirror_ambiguity.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/registration/pose_increment.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
+#include "kneel_study.h"
 
 using namespace fluoro_tracker;
 using geometry::Pose;
@@ -551,44 +549,28 @@ TEST(PoseError, AccuracyTallyCountsFramesAndRms) {
 // beam from some of these starts while its edge offset was held at zero; the default
 // half-resolution pass keeps it in place.
 TEST(Registrar, RecoversTheRealKneelPosesFromPerturbedStarts) {
-  const std::string dir = test_support::sharedData("jointtrack_kneel/");
-  const auto calibration = io::readJointTrackCalibration(dir + "calibration.txt");
-  const geometry::Mesh femur = geometry::Mesh::load(dir + "KR_right_7_fem.stl");
-  const geometry::Mesh tibia = geometry::Mesh::load(dir + "KR_right_6_tib.stl");
-  const auto femur_poses = io::readJtsFile(dir + "fem.jts");
-  const auto tibia_poses = io::readJtsFile(dir + "tib.jts");
-  registration::JointModel knee = kneeJoint();
-  knee.ligaments.bounds[0] = {-180.0, 180.0};
-  const registration::Registrar registrar(
-      {{"femur", std::make_shared<imaging::SilhouetteModel>(femur), 1.0},
-       {"tibia", std::make_shared<imaging::SilhouetteModel>(tibia), 1.0}},
-      registration::RegistrationSettings(), {knee});
+  const test_support::KneelStudy kneel;
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  const std::vector<std::string> frames = {"0160", "0170", "0180"};
-  for (std::size_t f = 0; f < frames.size(); ++f) {
-    const cv::Mat image = cv::imread(dir + "AT_K1_V1_" + frames[f] + ".tif", cv::IMREAD_UNCHANGED);
-    ASSERT_FALSE(image.empty()) << frames[f];
-    const geometry::XrayCamera camera =
-        io::cameraFromJointTrack(calibration, image.cols, image.rows);
-    const std::vector<Pose> reference = {io::opticalFromJointTrack(*femur_poses[f]),
-                                         io::opticalFromJointTrack(*tibia_poses[f])};
+  for (const auto& frame : kneel.frames) {
+    ASSERT_FALSE(frame.image.empty()) << frame.name;
     for (int start = 0; start < 6; ++start) {
       std::vector<Pose> starts;
-      for (const Pose& r : reference) {
+      for (const Pose& r : frame.reference) {
         double draws[6];
         for (double& d : draws) d = unit(rng);  // in a fixed order
         starts.push_back(
             offset(r, Eigen::Vector3d(0.002 * draws[0], 0.002 * draws[1], 0.003 * draws[2]),
                    geometry::degToRad(3.0) * Eigen::Vector3d(draws[3], draws[4], draws[5])));
       }
-      const auto result = registrar.solve({{image, camera}}, starts);
+      const auto result = kneel.registrar->solve({{frame.image, frame.camera}}, starts);
       for (int b = 0; b < 2; ++b) {
-        const auto e = registration::poseError(result.poses[b], reference[b], Pose::Identity());
+        const auto e =
+            registration::poseError(result.poses[b], frame.reference[b], Pose::Identity());
         EXPECT_LT(std::hypot(e.translation_mm.x(), e.translation_mm.y()), 1.0)
-            << "frame " << frames[f] << " start " << start << " bone " << b;
+            << "frame " << frame.name << " start " << start << " bone " << b;
         EXPECT_LT(e.rotation_deg.norm(), 2.0)
-            << "frame " << frames[f] << " start " << start << " bone " << b;
+            << "frame " << frame.name << " start " << start << " bone " << b;
       }
     }
   }
