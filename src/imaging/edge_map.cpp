@@ -57,13 +57,41 @@ double bilinear(const cv::Mat& image, double u, double v) {
          b * ((1 - a) * image.at<float>(v0 + 1, u0) + a * image.at<float>(v0 + 1, u0 + 1));
 }
 
-// Value below which `fraction` of the (non-negative) values of a CV_32F image lie.
+// Value below which `fraction` of the (non-negative) values of a continuous CV_32F image lie:
+// the exact order statistic, found by a histogram pass and a selection within the one bin that
+// holds it, since sorting or selecting over every pixel of each map costs more than the map's
+// Canny pass.
 float percentile(const cv::Mat& values, double fraction) {
-  std::vector<float> v(values.begin<float>(), values.end<float>());
-  if (v.empty()) return 0.0f;
-  const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(fraction * (v.size() - 1)));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
+  const std::size_t count = values.total();
+  if (count == 0) return 0.0f;
+  const std::size_t k = std::min(count - 1, static_cast<std::size_t>(fraction * (count - 1)));
+  double max_value = 0.0;
+  cv::minMaxLoc(values, nullptr, &max_value);
+  if (!(max_value > 0.0)) return 0.0f;
+  constexpr int kBins = 4096;
+  const float to_bin = static_cast<float>((kBins - 1) / max_value);
+  const auto bin_of = [&](float x) {
+    return std::clamp(static_cast<int>(x * to_bin), 0, kBins - 1);
+  };
+  std::vector<std::size_t> histogram(kBins, 0);
+  for (int v = 0; v < values.rows; ++v) {
+    const float* row = values.ptr<float>(v);
+    for (int u = 0; u < values.cols; ++u) ++histogram[bin_of(row[u])];
+  }
+  int bin = 0;
+  std::size_t below = 0;
+  while (below + histogram[bin] <= k) below += histogram[bin++];
+  std::vector<float> in_bin;
+  in_bin.reserve(histogram[bin]);
+  for (int v = 0; v < values.rows; ++v) {
+    const float* row = values.ptr<float>(v);
+    for (int u = 0; u < values.cols; ++u) {
+      if (bin_of(row[u]) == bin) in_bin.push_back(row[u]);
+    }
+  }
+  const auto kth = in_bin.begin() + static_cast<std::ptrdiff_t>(k - below);
+  std::nth_element(in_bin.begin(), kth, in_bin.end());
+  return *kth;
 }
 
 }  // namespace
@@ -181,6 +209,7 @@ void EdgeMap::computeSignedDistance(const cv::Mat& gx, const cv::Mat& gy, const 
   for (std::size_t k = 0; k < edge_pixels.size(); ++k) {
     edge_of_label[labels.at<int>(edge_pixels[k])] = static_cast<int>(k);
   }
+  const double max_squared = max_distance_ * max_distance_;
   for (int v = 0; v < edges_.rows; ++v) {
     const int* label = labels.ptr<int>(v);
     float* out = distance_.ptr<float>(v);
@@ -189,12 +218,19 @@ void EdgeMap::computeSignedDistance(const cv::Mat& gx, const cv::Mat& gy, const 
       if (k < 0) continue;
       const Eigen::Vector2d offset = Eigen::Vector2d(u, v) - points[k];
       const double along_normal = normals[k].dot(offset);
-      const double to_point = offset.norm();
+      const double squared = offset.squaredNorm();
       // Tangent-line distance near the edge, point distance far from it, blended between.
-      const double w = std::clamp((to_point - band) / band, 0.0, 1.0);
-      const double magnitude_px = std::sqrt(
-          along_normal * along_normal + w * (to_point * to_point - along_normal * along_normal));
-      const double value = std::min(magnitude_px, max_distance_);
+      // The cases spare the square roots, which dominate this loop, where the blend is 0 or 1.
+      double value = max_distance_;
+      if (squared <= band * band) {
+        value = std::abs(along_normal);
+      } else if (squared < max_squared) {
+        const double to_point = std::sqrt(squared);
+        const double w = std::min((to_point - band) / band, 1.0);
+        value = w == 1.0 ? to_point
+                         : std::sqrt(along_normal * along_normal +
+                                     w * (squared - along_normal * along_normal));
+      }
       out[u] = static_cast<float>(along_normal < 0.0 ? -value : value);
     }
   }
