@@ -77,8 +77,8 @@ Eigen::Vector2d offsetDirection(const imaging::ContourPoint& c,
 }
 
 // Pairs image edge pixels within `band` pixels of a projected contour with their nearest
-// contour sample (a labelled distance transform of the drawn contour), taking at most
-// `max_pairs` edges spread evenly.
+// contour sample (Euclidean, to the sample's sub-pixel position), taking at most `max_pairs`
+// edges spread evenly in raster order.
 std::vector<EdgeToContourCost::Pair> edgeContourPairs(
     const imaging::EdgeMap& map, const std::vector<imaging::ContourPoint>& contour,
     const geometry::Pose& pose, double band, std::size_t max_pairs,
@@ -95,46 +95,71 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
       cv::Rect(0, 0, map.edges().cols, map.edges().rows);
   if (crop.area() == 0) return {};
   const cv::Mat edges = map.edges()(crop);
-  cv::Mat index(edges.size(), CV_32S, cv::Scalar(-1));
-  cv::Mat not_contour(edges.size(), CV_8U, cv::Scalar(255));
+  // The samples bucketed in band-sized cells, so that each edge pixel compares only the samples
+  // of its 3 x 3 cells. (A labelled distance transform of the crop, per bone and outer
+  // iteration, took about 0.3 ms: a sixth of the image-only registration's time.)
+  const int cell = std::max(1, static_cast<int>(std::ceil(band)));
+  const int grid_cols = crop.width / cell + 1;
+  const int grid_rows = crop.height / cell + 1;
+  std::vector<int> cell_of_sample(contour.size(), -1);
+  std::vector<int> cell_start(static_cast<std::size_t>(grid_cols * grid_rows) + 1, 0);
   for (std::size_t j = 0; j < contour.size(); ++j) {
-    const int u = static_cast<int>(std::lround(contour[j].pixel.x())) - crop.x;
-    const int v = static_cast<int>(std::lround(contour[j].pixel.y())) - crop.y;
-    if (u < 0 || v < 0 || u >= edges.cols || v >= edges.rows) continue;
-    index.at<int>(v, u) = static_cast<int>(j);
-    not_contour.at<std::uint8_t>(v, u) = 0;
+    const double u = contour[j].pixel.x() - crop.x;
+    const double v = contour[j].pixel.y() - crop.y;
+    if (!(u >= 0.0 && v >= 0.0 && u < crop.width && v < crop.height)) continue;
+    cell_of_sample[j] = static_cast<int>(v) / cell * grid_cols + static_cast<int>(u) / cell;
+    ++cell_start[cell_of_sample[j] + 1];
   }
-  cv::Mat distance;
-  cv::Mat labels;
-  cv::distanceTransform(not_contour, distance, labels, cv::DIST_L2, cv::DIST_MASK_5,
-                        cv::DIST_LABEL_PIXEL);
-  // Label -> contour sample, read at the contour pixels themselves.
-  std::vector<int> sample_of_label(static_cast<std::size_t>(edges.total()) + 1, -1);
-  for (int v = 0; v < edges.rows; ++v) {
-    for (int u = 0; u < edges.cols; ++u) {
-      if (not_contour.at<std::uint8_t>(v, u) == 0) {
-        sample_of_label[labels.at<int>(v, u)] = index.at<int>(v, u);
-      }
+  for (std::size_t c = 1; c < cell_start.size(); ++c) cell_start[c] += cell_start[c - 1];
+  std::vector<int> samples_by_cell(static_cast<std::size_t>(cell_start.back()));
+  {
+    std::vector<int> next(cell_start.begin(), cell_start.end() - 1);
+    for (std::size_t j = 0; j < contour.size(); ++j) {
+      if (cell_of_sample[j] >= 0) samples_by_cell[next[cell_of_sample[j]]++] = static_cast<int>(j);
     }
   }
-  std::vector<cv::Point> candidates;
+  struct Candidate {
+    int u;
+    int v;
+    int sample;
+  };
+  std::vector<Candidate> candidates;
+  const double band_squared = band * band;
   for (int v = 0; v < edges.rows; ++v) {
     const std::uint8_t* e = edges.ptr<std::uint8_t>(v);
-    const float* d = distance.ptr<float>(v);
+    const int cell_v = v / cell;
     for (int u = 0; u < edges.cols; ++u) {
-      if (e[u] != 0 && d[u] <= band) candidates.emplace_back(u, v);
+      if (e[u] == 0) continue;
+      const int cell_u = u / cell;
+      double best = band_squared;
+      int nearest = -1;
+      for (int gv = std::max(0, cell_v - 1); gv <= std::min(grid_rows - 1, cell_v + 1); ++gv) {
+        for (int gu = std::max(0, cell_u - 1); gu <= std::min(grid_cols - 1, cell_u + 1); ++gu) {
+          const int g = gv * grid_cols + gu;
+          for (int k = cell_start[g]; k < cell_start[g + 1]; ++k) {
+            const int j = samples_by_cell[k];
+            const double du = contour[j].pixel.x() - crop.x - u;
+            const double dv = contour[j].pixel.y() - crop.y - v;
+            const double squared = du * du + dv * dv;
+            if (squared <= best) {
+              best = squared;
+              nearest = j;
+            }
+          }
+        }
+      }
+      if (nearest >= 0) candidates.push_back({u, v, nearest});
     }
   }
   const std::size_t stride = std::max<std::size_t>(
       1, (candidates.size() + max_pairs - 1) / std::max<std::size_t>(1, max_pairs));
   std::vector<EdgeToContourCost::Pair> pairs;
   for (std::size_t k = 0; k < candidates.size(); k += stride) {
-    const cv::Point& c = candidates[k];
-    const int j = sample_of_label[labels.at<int>(c.y, c.x)];
-    if (j < 0) continue;
-    pairs.push_back({pose * contour[j].model_point, contour[j].normal,
-                     map.edgePoint(c.x + crop.x, c.y + crop.y),
-                     contour[j].normal.dot(offsetDirection(contour[j], model))});
+    const Candidate& c = candidates[k];
+    const imaging::ContourPoint& sample = contour[c.sample];
+    pairs.push_back({pose * sample.model_point, sample.normal,
+                     map.edgePoint(c.u + crop.x, c.v + crop.y),
+                     sample.normal.dot(offsetDirection(sample, model))});
   }
   return pairs;
 }

@@ -662,6 +662,9 @@ int main(int argc, char** argv) {
       po::value(&settings.mirror_check.enabled)->default_value(settings.mirror_check.enabled),
       "single view: also solve from the tibial tray's mirror pose and keep it if it fits as well "
       "and the knee is nearer neutral (true/false)")(
+      "contour-spacing-px",
+      po::value(&settings.contour_spacing_px)->default_value(settings.contour_spacing_px),
+      "silhouette contour sample spacing, pixels at each scale")(
       "mirror-turn",
       po::value(&settings.mirror_check.turn_reflection)
           ->default_value(settings.mirror_check.turn_reflection),
