@@ -128,22 +128,33 @@ std::vector<geometry::Pose> edgeMatchStarts(const imaging::SilhouetteLibrary& li
 }
 
 // How well a pose's projected contour lies on the coarse map's edges: the share of contour
-// samples within one coarse pixel of an edge (0 when the bone is not in the view).
-double screeningScore(const imaging::SilhouetteModel& silhouette, const geometry::Pose& pose,
-                      const imaging::EdgeMap& coarse) {
+// samples within one coarse pixel of an edge, and within `wide_px` (0 when the bone is not in
+// the view).
+struct ScreeningScores {
+  double near = 0.0;
+  double wide = 0.0;
+};
+
+ScreeningScores screeningScores(const imaging::SilhouetteModel& silhouette,
+                                const geometry::Pose& pose, const imaging::EdgeMap& coarse,
+                                double wide_px) {
   const geometry::XrayCamera& camera = coarse.camera();
   const geometry::Pose camera_from_mesh = camera.worldFromCamera().inverse() * pose;
-  if (camera_from_mesh.translation().z() <= 0.0) return 0.0;
+  if (camera_from_mesh.translation().z() <= 0.0) return {};
   const auto contour = silhouette.contour(camera, camera_from_mesh, 1.0);
-  if (contour.empty()) return 0.0;
+  if (contour.empty()) return {};
   int near = 0;
+  int wide = 0;
   for (const auto& c : contour) {
     double d = 0.0;
     double du = 0.0;
     double dv = 0.0;
-    if (coarse.sample(c.pixel.x(), c.pixel.y(), &d, &du, &dv) && std::abs(d) <= 1.0) ++near;
+    if (!coarse.sample(c.pixel.x(), c.pixel.y(), &d, &du, &dv)) continue;
+    if (std::abs(d) <= 1.0) ++near;
+    if (std::abs(d) <= wide_px) ++wide;
   }
-  return static_cast<double>(near) / contour.size();
+  const double count = static_cast<double>(contour.size());
+  return {near / count, wide / count};
 }
 
 // The pose of the missing bone of a joint for given joint coordinates and the other's pose.
@@ -244,6 +255,10 @@ void PoseSearchSettings::validate() const {
   if (matches_per_bone < 1 || refined_per_bone < 1) {
     throw InputError("registration search: matches_per_bone and refined_per_bone must be >= 1");
   }
+  if (wide_refined_per_bone < 0 || !(wide_screening_px >= 1.0)) {
+    throw InputError(
+        "registration search: wide_refined_per_bone must be >= 0 and wide_screening_px >= 1");
+  }
   if (!(screening_scale > 0.0 && screening_scale <= 1.0)) {
     throw InputError("registration search: screening_scale must be in (0, 1]");
   }
@@ -338,19 +353,31 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
   std::vector<std::vector<Hypothesis>> hypotheses(bones);
   const auto refineBest = [&](std::size_t b, std::vector<geometry::Pose> starts) {
     std::vector<std::pair<double, geometry::Pose>> screened;
+    std::vector<std::pair<double, geometry::Pose>> screened_wide;
     for (const geometry::Pose& s : starts) {
-      screened.emplace_back(screeningScore(*registrar_->bones()[b].silhouette, s, coarse), s);
+      const ScreeningScores scores = screeningScores(*registrar_->bones()[b].silhouette, s, coarse,
+                                                     settings_.wide_screening_px);
+      screened.emplace_back(scores.near, s);
+      screened_wide.emplace_back(scores.wide, s);
     }
-    std::stable_sort(screened.begin(), screened.end(),
-                     [](const auto& x, const auto& y) { return x.first > y.first; });
     std::vector<geometry::Pose> refined_starts;
-    for (const auto& [score, pose] : screened) {
-      if (static_cast<int>(refined_starts.size()) >= settings_.refined_per_bone) break;
-      const bool distinct =
-          std::none_of(refined_starts.begin(), refined_starts.end(),
-                       [&](const geometry::Pose& other) { return isSameHypothesis(other, pose); });
-      if (distinct) refined_starts.push_back(pose);
-    }
+    const auto takeBest = [&](std::vector<std::pair<double, geometry::Pose>>* ranked, int count) {
+      std::stable_sort(ranked->begin(), ranked->end(),
+                       [](const auto& x, const auto& y) { return x.first > y.first; });
+      int taken = 0;
+      for (const auto& [score, pose] : *ranked) {
+        if (taken >= count) break;
+        const bool distinct = std::none_of(
+            refined_starts.begin(), refined_starts.end(),
+            [&](const geometry::Pose& other) { return isSameHypothesis(other, pose); });
+        if (distinct) {
+          refined_starts.push_back(pose);
+          ++taken;
+        }
+      }
+    };
+    takeBest(&screened, settings_.refined_per_bone);
+    takeBest(&screened_wide, settings_.wide_refined_per_bone);
     for (const geometry::Pose& s : refined_starts) {
       RegistrationResult refined;
       try {

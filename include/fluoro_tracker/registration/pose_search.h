@@ -35,6 +35,14 @@ struct PoseSearchSettings {
   // contour lies on the edges of the frame at this scale; the best few are refined.
   double screening_scale = 0.25;
   int refined_per_bone = 4;
+  // ... and the best few by a wider tolerance (screening-scale pixels) as well: a start 5-15 deg
+  // and 5-15 mm off (from the joint's envelope, in deep flexion) has little of its contour
+  // within one coarse pixel of an edge, and starts that lie on other edges outscore it.
+  // Measured with `benchmark --protocol search` (40 frames, contact + ligaments): no guess
+  // succeeded in 77.5 -> 85 % (seed 7) and 85 -> 90 % (seed 11) at about 0.4 s more per frame;
+  // three such starts (82.5 %) or a single tolerance of 2 for all (72.5 %) did worse.
+  double wide_screening_px = 2.0;
+  int wide_refined_per_bone = 2;
   // Distances from the source at which a bone may be: a region whose size would put the bone
   // outside them is not that bone (it is a marker, a fragment, or another object).
   double min_depth_m = 0.2;

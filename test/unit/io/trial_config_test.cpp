@@ -321,4 +321,27 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.joints[0].ligaments.stiffness_per_deg, ligaments.stiffness_per_deg);
   EXPECT_DOUBLE_EQ(c.joints[0].ligaments.stiffness_per_mm, ligaments.stiffness_per_mm);
   EXPECT_EQ(c.joints[0].side, kinematics::Side::kRight);
+  const registration::PoseSearchSettings search;
+  EXPECT_EQ(c.search.refined_per_bone, search.refined_per_bone);
+  EXPECT_EQ(c.search.wide_refined_per_bone, search.wide_refined_per_bone);
+  EXPECT_DOUBLE_EQ(c.search.wide_screening_px, search.wide_screening_px);
+  EXPECT_DOUBLE_EQ(c.search.screening_scale, search.screening_scale);
+}
+
+TEST(TrialConfig, SearchSectionFillsTheSettingsAndRejectsBadValues) {
+  TempDir dir;
+  test_support::writeText(dir.file("trial.yaml"), R"(
+bones:
+  - {name: femur, mesh: f.stl}
+registration:
+  search: {refined_per_bone: 3, wide_refined_per_bone: 0, wide_screening_px: 3.0}
+)");
+  const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
+  EXPECT_EQ(c.search.refined_per_bone, 3);
+  EXPECT_EQ(c.search.wide_refined_per_bone, 0);
+  EXPECT_DOUBLE_EQ(c.search.wide_screening_px, 3.0);
+  test_support::writeText(dir.file("bad.yaml"),
+                          "bones:\n  - {name: femur, mesh: f.stl}\n"
+                          "registration: {search: {wide_screening_px: 0.5}}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad.yaml")), "wide_screening_px >= 1");
 }
