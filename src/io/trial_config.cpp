@@ -277,14 +277,18 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
     }
   }
   const YamlSection mirror = section.child("mirror_check");
-  mirror.allowOnly({"enabled", "cost_tolerance", "min_difference_deg", "outer_iterations",
-                    "solver_iterations", "turn_reflection"});
+  mirror.allowOnly({"enabled", "cost_tolerance", "min_difference_deg", "max_difference_deg",
+                    "tracking_turn_max_difference_deg", "outer_iterations", "solver_iterations",
+                    "turn_reflection", "mirror_reflection"});
   mirror.read("enabled", &r.mirror_check.enabled);
   mirror.read("cost_tolerance", &r.mirror_check.cost_tolerance);
   mirror.read("min_difference_deg", &r.mirror_check.min_difference_deg);
+  mirror.read("max_difference_deg", &r.mirror_check.max_difference_deg);
+  mirror.read("tracking_turn_max_difference_deg", &r.mirror_check.tracking_turn_max_difference_deg);
   mirror.read("outer_iterations", &r.mirror_check.outer_iterations);
   mirror.read("solver_iterations", &r.mirror_check.solver_iterations);
   mirror.read("turn_reflection", &r.mirror_check.turn_reflection);
+  mirror.read("mirror_reflection", &r.mirror_check.mirror_reflection);
   const YamlSection edges = section.child("edges");
   edges.allowOnly({"window_low_percentile", "window_high_percentile", "clahe", "clahe_clip_limit",
                    "blur_sigma_px", "canny_low", "canny_high", "auto_high_fraction",

@@ -382,9 +382,12 @@ void RegistrationSettings::validate() const {
     }
   }
   if (!(mirror_check.cost_tolerance >= 0.0) || !(mirror_check.min_difference_deg >= 0.0) ||
+      !(mirror_check.max_difference_deg >= mirror_check.min_difference_deg) ||
+      !(mirror_check.tracking_turn_max_difference_deg >= 0.0) ||
       mirror_check.outer_iterations < 1 || mirror_check.solver_iterations < 1) {
     throw InputError(
         "registration: mirror_check needs cost_tolerance >= 0, min_difference_deg >= 0, "
+        "max_difference_deg >= min_difference_deg, tracking_turn_max_difference_deg >= 0, "
         "outer_iterations >= 1 and solver_iterations >= 1");
   }
   edges.validate();
@@ -440,7 +443,8 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
                               joint.coordinates(poses[joint.parent], poses[joint.child]));
     };
     const geometry::Pose child = camera_from_fixed * result.poses[joint.child];
-    std::vector<geometry::Pose> candidates = {mirroredAcrossBeam(child)};
+    std::vector<geometry::Pose> candidates;
+    if (settings_.mirror_check.mirror_reflection) candidates.push_back(mirroredAcrossBeam(child));
     if (settings_.mirror_check.turn_reflection)
       candidates.push_back(turnReflectedAcrossBeam(child));
     const double first_cost = result.final_cost;
@@ -451,8 +455,9 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
     RegistrationResult best;
     bool replaced = false;
     for (const geometry::Pose& candidate : candidates) {
-      if (geometry::rotationAngleBetween(candidate.linear(), child.linear()) <
-          geometry::degToRad(settings_.mirror_check.min_difference_deg)) {
+      const double difference = geometry::rotationAngleBetween(candidate.linear(), child.linear());
+      if (difference < geometry::degToRad(settings_.mirror_check.min_difference_deg) ||
+          difference > geometry::degToRad(settings_.mirror_check.max_difference_deg)) {
         continue;
       }
       std::vector<geometry::Pose> starts = result.poses;

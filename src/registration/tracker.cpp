@@ -34,7 +34,16 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
   const RegistrationSettings& settings = registrar_->settings();
   if (settings.mirror_check.enabled || settings.tracking_scales != settings.scales) {
     RegistrationSettings continuing = settings;
-    continuing.mirror_check.enabled = false;
+    // Only the turn reflection, and only near the view where the branches meet (see
+    // MirrorCheckSettings::tracking_turn_max_difference_deg).
+    const MirrorCheckSettings& mirror = settings.mirror_check;
+    continuing.mirror_check.enabled =
+        mirror.enabled && mirror.turn_reflection &&
+        mirror.tracking_turn_max_difference_deg > mirror.min_difference_deg;
+    continuing.mirror_check.mirror_reflection = false;
+    continuing.mirror_check.max_difference_deg =
+        std::min(mirror.max_difference_deg,
+                 std::max(mirror.min_difference_deg, mirror.tracking_turn_max_difference_deg));
     continuing.scales = settings.tracking_scales;
     continuing_registrar_ =
         std::make_shared<const Registrar>(registrar_->bones(), continuing, registrar_->joints());

@@ -204,7 +204,8 @@ registration:
   edge_offset_tracking: {enabled: false, frame_sd_px: 0.3, drift_px: 0.05}
   edges: {clahe: true, canny_high: 60}
   mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, solver_iterations: 5,
-                 turn_reflection: false}
+                 turn_reflection: false, mirror_reflection: false, max_difference_deg: 30,
+                 tracking_turn_max_difference_deg: 4}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_FALSE(c.registration.mirror_check.enabled);
@@ -212,6 +213,9 @@ registration:
   EXPECT_EQ(c.registration.mirror_check.outer_iterations, 3);
   EXPECT_EQ(c.registration.mirror_check.solver_iterations, 5);
   EXPECT_FALSE(c.registration.mirror_check.turn_reflection);
+  EXPECT_FALSE(c.registration.mirror_check.mirror_reflection);
+  EXPECT_DOUBLE_EQ(c.registration.mirror_check.max_difference_deg, 30.0);
+  EXPECT_DOUBLE_EQ(c.registration.mirror_check.tracking_turn_max_difference_deg, 4.0);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_difference_deg,
                    registration::MirrorCheckSettings().min_difference_deg);
   EXPECT_EQ(c.registration.scales, (std::vector<double>{0.25, 1.0}));
@@ -301,6 +305,9 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.registration.mirror_check.outer_iterations, d.mirror_check.outer_iterations);
   EXPECT_EQ(c.registration.mirror_check.solver_iterations, d.mirror_check.solver_iterations);
   EXPECT_EQ(c.registration.mirror_check.turn_reflection, d.mirror_check.turn_reflection);
+  EXPECT_EQ(c.registration.mirror_check.mirror_reflection, d.mirror_check.mirror_reflection);
+  EXPECT_DOUBLE_EQ(c.registration.mirror_check.tracking_turn_max_difference_deg,
+                   d.mirror_check.tracking_turn_max_difference_deg);
   ASSERT_EQ(c.joints.size(), 1u);
   const constraints::ContactSettings contact;
   EXPECT_TRUE(c.joints[0].contact.enabled);

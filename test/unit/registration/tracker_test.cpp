@@ -170,7 +170,9 @@ TEST(Tracker, SearchesALostFrameAtOnce) {
 // Poses the user gives may sit on the tray's mirror branch: the first frame is mirror-checked
 // (and lands on the truth); frames started from an earlier registration are not (one solve,
 // at most the configured outer iterations).
-TEST(Tracker, ChecksTheMirrorOnlyFromPosesTheUserGave) {
+// Every mirror is checked from poses the user gave (the first frame); frames continued from an
+// earlier result check only the turn reflection, when within tracking_turn_max_difference_deg.
+TEST(Tracker, ChecksTheMirrorFromPosesTheUserGaveAndNearMirrorsWhileTracking) {
   sim::TrialSimulatorSettings s;
   s.motion.frames = 12;
   const sim::TrialSimulator simulator(s);
@@ -180,13 +182,18 @@ TEST(Tracker, ChecksTheMirrorOnlyFromPosesTheUserGave) {
   knee.name = "knee";
   knee.parent = 0;
   knee.child = 1;
-  const auto registrar = std::make_shared<const registration::Registrar>(
-      std::vector<registration::BoneModel>{
-          {"femur",
-           std::make_shared<imaging::SilhouetteModel>(simulator.implants().femoral_component), 1.0},
-          {"tibia", std::make_shared<imaging::SilhouetteModel>(simulator.implants().tibial_tray),
-           1.0}},
-      registration::RegistrationSettings(), std::vector<registration::JointModel>{knee});
+  const auto makeRegistrar = [&](double tracking_turn_max_difference_deg) {
+    registration::RegistrationSettings settings;
+    settings.mirror_check.tracking_turn_max_difference_deg = tracking_turn_max_difference_deg;
+    return std::make_shared<const registration::Registrar>(
+        std::vector<registration::BoneModel>{
+            {"femur",
+             std::make_shared<imaging::SilhouetteModel>(simulator.implants().femoral_component),
+             1.0},
+            {"tibia", std::make_shared<imaging::SilhouetteModel>(simulator.implants().tibial_tray),
+             1.0}},
+        settings, std::vector<registration::JointModel>{knee});
+  };
   std::mt19937_64 rng(3);
   const auto frame = simulator.render(5, &rng);
   const geometry::XrayCamera& camera = simulator.views()[0].camera;
@@ -196,22 +203,35 @@ TEST(Tracker, ChecksTheMirrorOnlyFromPosesTheUserGave) {
   ASSERT_GT(geometry::radToDeg(
                 geometry::rotationAngleBetween(mirrored_tibia.linear(), frame.tibia.linear())),
             2.0);
-  registration::Tracker tracker(registrar, {frame.femur, mirrored_tibia});
+  const Pose turned_tibia = registration::turnReflectedAcrossBeam(camera_from_fixed * frame.tibia);
+  ASSERT_GT(geometry::radToDeg(geometry::rotationAngleBetween(
+                turned_tibia.linear(), (camera_from_fixed * frame.tibia).linear())),
+            2.0);
   const std::vector<registration::ViewImage> views = {{frame.images[0], camera}};
-  const registration::TrackedFrame first = tracker.track(views);
-  EXPECT_TRUE(registration::meetsSuccessCriterion(
-      registration::poseError(first.poses[1], frame.tibia, camera_from_fixed)));
   // Outer iterations of one solve over these scales.
-  const registration::RegistrationSettings& settings = registrar->settings();
-  const int coarse = settings.coarse_outer_iterations > 0 ? settings.coarse_outer_iterations
-                                                          : settings.outer_iterations;
+  const registration::RegistrationSettings defaults;
+  const int coarse = defaults.coarse_outer_iterations > 0 ? defaults.coarse_outer_iterations
+                                                          : defaults.outer_iterations;
   const auto one_solve = [&](const std::vector<double>& scales) {
-    return settings.outer_iterations + coarse * static_cast<int>(scales.size() - 1);
+    return defaults.outer_iterations + coarse * static_cast<int>(scales.size() - 1);
   };
-  EXPECT_GT(first.result.outer_iterations, one_solve(settings.scales));  // the check's solves
-  // Continued from the first frame: no mirror check, and the tracking scales only.
-  const registration::TrackedFrame second = tracker.track(views);
-  EXPECT_LE(second.result.outer_iterations, one_solve(settings.tracking_scales));
-  EXPECT_TRUE(registration::meetsSuccessCriterion(
-      registration::poseError(second.poses[1], frame.tibia, camera_from_fixed)));
+  for (const double tracking_turn_max_difference_deg : {0.0, 180.0}) {
+    SCOPED_TRACE(tracking_turn_max_difference_deg);
+    registration::Tracker tracker(makeRegistrar(tracking_turn_max_difference_deg),
+                                  {frame.femur, mirrored_tibia});
+    const registration::TrackedFrame first = tracker.track(views);
+    EXPECT_TRUE(registration::meetsSuccessCriterion(
+        registration::poseError(first.poses[1], frame.tibia, camera_from_fixed)));
+    EXPECT_GT(first.result.outer_iterations, one_solve(defaults.scales));  // the check's solves
+    // Continued from the first frame: the tracking scales only, and the turn reflection's solve
+    // only when it may be tried at any distance (this tray's is farther than 2 deg).
+    const registration::TrackedFrame second = tracker.track(views);
+    if (tracking_turn_max_difference_deg == 0.0) {
+      EXPECT_LE(second.result.outer_iterations, one_solve(defaults.tracking_scales));
+    } else {
+      EXPECT_GT(second.result.outer_iterations, one_solve(defaults.tracking_scales));
+    }
+    EXPECT_TRUE(registration::meetsSuccessCriterion(
+        registration::poseError(second.poses[1], frame.tibia, camera_from_fixed)));
+  }
 }
