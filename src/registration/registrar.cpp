@@ -101,11 +101,13 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
   const int cell = std::max(1, static_cast<int>(std::ceil(band)));
   const int grid_cols = crop.width / cell + 1;
   const int grid_rows = crop.height / cell + 1;
+  std::vector<Eigen::Vector2d> in_crop(contour.size());  // sample positions in the crop
   std::vector<int> cell_of_sample(contour.size(), -1);
   std::vector<int> cell_start(static_cast<std::size_t>(grid_cols * grid_rows) + 1, 0);
   for (std::size_t j = 0; j < contour.size(); ++j) {
-    const double u = contour[j].pixel.x() - crop.x;
-    const double v = contour[j].pixel.y() - crop.y;
+    in_crop[j] = contour[j].pixel - Eigen::Vector2d(crop.x, crop.y);
+    const double u = in_crop[j].x();
+    const double v = in_crop[j].y();
     if (!(u >= 0.0 && v >= 0.0 && u < crop.width && v < crop.height)) continue;
     cell_of_sample[j] = static_cast<int>(v) / cell * grid_cols + static_cast<int>(u) / cell;
     ++cell_start[cell_of_sample[j] + 1];
@@ -138,8 +140,8 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
           const int g = gv * grid_cols + gu;
           for (int k = cell_start[g]; k < cell_start[g + 1]; ++k) {
             const int j = samples_by_cell[k];
-            const double du = contour[j].pixel.x() - crop.x - u;
-            const double dv = contour[j].pixel.y() - crop.y - v;
+            const double du = in_crop[j].x() - u;
+            const double dv = in_crop[j].y() - v;
             const double squared = du * du + dv * dv;
             if (squared <= best) {
               best = squared;

@@ -41,9 +41,10 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
         mirror.enabled && mirror.turn_reflection &&
         mirror.tracking_turn_max_difference_deg > mirror.min_difference_deg;
     continuing.mirror_check.mirror_reflection = false;
-    continuing.mirror_check.max_difference_deg =
-        std::min(mirror.max_difference_deg,
-                 std::max(mirror.min_difference_deg, mirror.tracking_turn_max_difference_deg));
+    if (continuing.mirror_check.enabled) {
+      continuing.mirror_check.max_difference_deg =
+          std::min(mirror.max_difference_deg, mirror.tracking_turn_max_difference_deg);
+    }
     continuing.scales = settings.tracking_scales;
     continuing_registrar_ =
         std::make_shared<const Registrar>(registrar_->bones(), continuing, registrar_->joints());
