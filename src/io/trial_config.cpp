@@ -220,6 +220,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "edges",
                      "compute_covariance",
                      "mirror_check",
+                     "depth_retry",
                      "quality",
                      "search"});
   section.read("compute_covariance", &r.compute_covariance);
@@ -289,6 +290,10 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   mirror.read("solver_iterations", &r.mirror_check.solver_iterations);
   mirror.read("turn_reflection", &r.mirror_check.turn_reflection);
   mirror.read("mirror_reflection", &r.mirror_check.mirror_reflection);
+  const YamlSection depth_retry = section.child("depth_retry");
+  depth_retry.allowOnly({"enabled", "shifts_mm"});
+  depth_retry.read("enabled", &r.depth_retry.enabled);
+  depth_retry.read("shifts_mm", &r.depth_retry.shifts_mm);
   const YamlSection edges = section.child("edges");
   edges.allowOnly({"window_low_percentile", "window_high_percentile", "clahe", "clahe_clip_limit",
                    "blur_sigma_px", "canny_low", "canny_high", "auto_high_fraction",

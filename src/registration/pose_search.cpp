@@ -297,6 +297,8 @@ PoseSearch::PoseSearch(std::shared_ptr<const Registrar> registrar, PoseSearchSet
   // Measured: starts tens of millimetres off along the beam fare better with the offset free at
   // every scale (RegistrationSettings::edge_offset_hold).
   refine.edge_offset_hold = false;
+  // Each start is one hypothesis among many; the search itself covers depth.
+  refine.depth_retry.enabled = false;
   // Hypotheses are screened and chosen by their contour's inlier support; local equalisation
   // raises clutter edges everywhere, which lends wrong hypotheses support (real Kneel frame
   // 0180: a tibial tray turned 28 deg about its stem won). The search works on the window

@@ -392,6 +392,11 @@ void RegistrationSettings::validate() const {
         "max_difference_deg >= min_difference_deg, tracking_turn_max_difference_deg >= 0, "
         "outer_iterations >= 1 and solver_iterations >= 1");
   }
+  for (double shift : depth_retry.shifts_mm) {
+    if (!std::isfinite(shift) || shift == 0.0) {
+      throw InputError("registration: depth_retry: shifts_mm must be finite and non-zero");
+    }
+  }
   edges.validate();
   quality.validate();
 }
@@ -433,6 +438,51 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
           "and view");
     }
   }
+  RegistrationResult result = solveChecked(views, initial_poses, loaded, offset_priors);
+  if (!settings_.depth_retry.enabled) return result;
+  // Fewer bones not ok first (lost counts twice), then more contour inliers.
+  const auto rank = [&](const RegistrationResult& r) {
+    double score = 0.0;
+    for (const std::string& status : classifyBones(r, settings_.quality)) {
+      score += status == "ok" ? 0.0 : status == "suspect" ? 1.0 : 2.0;
+    }
+    double inliers = 0.0;
+    for (const BoneQuality& q : r.quality) inliers += q.contour_inlier_fraction;
+    return std::make_pair(score, -inliers);
+  };
+  auto best_rank = rank(result);
+  if (best_rank.first == 0.0) return result;
+  const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();
+  int evaluations = result.cost_evaluations;
+  // From the result, whose in-plane position and rotations are mostly right, rather than from
+  // the start (measured on the crude protocol: 91 against 89 % success).
+  const std::vector<geometry::Pose> base = result.poses;
+  for (double shift_mm : settings_.depth_retry.shifts_mm) {
+    std::vector<geometry::Pose> starts = base;
+    for (std::size_t b = 0; b < starts.size(); ++b) {
+      geometry::Pose in_camera = camera_from_fixed * starts[b];
+      const Eigen::Vector3d centre = in_camera * centroids_[b];
+      if (!(centre.norm() > 0.0)) continue;
+      in_camera.translation() += 1e-3 * shift_mm * centre.normalized();
+      starts[b] = camera_from_fixed.inverse() * in_camera;
+    }
+    RegistrationResult retry = solveChecked(views, starts, loaded, offset_priors);
+    evaluations += retry.cost_evaluations;
+    const auto retry_rank = rank(retry);
+    if (retry_rank < best_rank) {
+      best_rank = retry_rank;
+      result = std::move(retry);
+    }
+    if (best_rank.first == 0.0) break;
+  }
+  result.cost_evaluations = evaluations;
+  return result;
+}
+
+RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
+                                           const std::vector<geometry::Pose>& initial_poses,
+                                           const std::vector<bool>& loaded,
+                                           const EdgeOffsetPriors& offset_priors) const {
   std::vector<imaging::EdgeMap> finest_maps;
   RegistrationResult result = solveFrom(views, initial_poses, loaded, offset_priors, &finest_maps);
   // A second view sees the mirror from another side: only single views are ambiguous.

@@ -622,6 +622,7 @@ int main(int argc, char** argv) {
   Perturbation perturbation;
   registration::RegistrationSettings settings;
   std::vector<double> scales;
+  std::string depth_retry_shifts;
   std::string conditions_option = "image,contact";
   std::string edge_offset_model = "uniform";
   std::string protocol = "standard";
@@ -662,6 +663,12 @@ int main(int argc, char** argv) {
       po::value(&settings.mirror_check.enabled)->default_value(settings.mirror_check.enabled),
       "single view: also solve from the tibial tray's mirror pose and keep it if it fits as well "
       "and the knee is nearer neutral (true/false)")(
+      "depth-retry",
+      po::value(&settings.depth_retry.enabled)->default_value(settings.depth_retry.enabled),
+      "when a bone's status is not ok, solve again from the starts moved along the beam by "
+      "each of --depth-retry-shifts-mm and keep the best (true/false)")(
+      "depth-retry-shifts-mm", po::value(&depth_retry_shifts),
+      "the depth retry's shifts along the beam, comma-separated mm (default -15,15)")(
       "contour-spacing-px",
       po::value(&settings.contour_spacing_px)->default_value(settings.contour_spacing_px),
       "silhouette contour sample spacing, pixels at each scale")(
@@ -751,6 +758,13 @@ int main(int argc, char** argv) {
       throw InputError("--protocol must be standard, crude or search, not '" + protocol + "'");
     }
     if (!scales.empty()) settings.scales = scales;
+    if (!depth_retry_shifts.empty()) {
+      settings.depth_retry.shifts_mm.clear();
+      std::stringstream list(depth_retry_shifts);
+      for (std::string item; std::getline(list, item, ',');) {
+        settings.depth_retry.shifts_mm.push_back(std::stod(item));
+      }
+    }
     if (vm.count("staged")) {
       registration::RegistrationStage envelope;
       envelope.outer_iterations = 2;

@@ -78,6 +78,18 @@ struct MirrorCheckSettings {
 };
 
 // Tracking (EdgeOffsetFilter): each bone's edge offset carried from frame to frame as a prior.
+// Single-plane registration from a crude guess can settle with both bones several millimetres to
+// centimetres along the beam, where rotations make up for the wrong size of their projections.
+// When the result's quality status is not ok for some bone, the registrar solves again from the
+// result moved along the first view's beam by each of `shifts_mm` (every bone by the same
+// distance, along its own ray from the source) and keeps the best: fewest bones not ok, then
+// the highest contour inlier fraction. Frames the tracker continues from an earlier result do
+// not retry (a lost one is searched instead), nor do the pose search's refinements.
+struct DepthRetrySettings {
+  bool enabled = true;
+  std::vector<double> shifts_mm = {-15.0, 15.0};
+};
+
 struct EdgeOffsetTrackingSettings {
   bool enabled = true;
   // Standard deviation of one frame's estimate (benchmark: 0.04-0.24 px within a trial).
@@ -147,6 +159,7 @@ struct RegistrationSettings {
   // scaled by the residual variance). Costs a few milliseconds per outer iteration.
   bool compute_covariance = false;
   MirrorCheckSettings mirror_check;
+  DepthRetrySettings depth_retry;
   imaging::EdgeMapSettings edges;
   QualitySettings quality;
 
@@ -266,6 +279,11 @@ class Registrar {
   // One registration from these starts (solve is this plus the mirror check). `finest_maps`
   // (optional): when it holds maps, only the finest scale runs, on them; when empty, it
   // receives the finest scale's maps.
+  // solveFrom, then the mirror check (single view).
+  RegistrationResult solveChecked(const std::vector<ViewImage>& views,
+                                  const std::vector<geometry::Pose>& initial_poses,
+                                  const std::vector<bool>& loaded,
+                                  const EdgeOffsetPriors& offset_priors) const;
   RegistrationResult solveFrom(const std::vector<ViewImage>& views,
                                const std::vector<geometry::Pose>& initial_poses,
                                const std::vector<bool>& loaded,

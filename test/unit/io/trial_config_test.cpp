@@ -206,6 +206,7 @@ registration:
   mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, solver_iterations: 5,
                  turn_reflection: false, mirror_reflection: false, max_difference_deg: 30,
                  tracking_turn_max_difference_deg: 4}
+  depth_retry: {enabled: false, shifts_mm: [-10, 10, -25]}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_FALSE(c.registration.mirror_check.enabled);
@@ -218,6 +219,8 @@ registration:
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.tracking_turn_max_difference_deg, 4.0);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_difference_deg,
                    registration::MirrorCheckSettings().min_difference_deg);
+  EXPECT_FALSE(c.registration.depth_retry.enabled);
+  EXPECT_EQ(c.registration.depth_retry.shifts_mm, (std::vector<double>{-10.0, 10.0, -25.0}));
   EXPECT_EQ(c.registration.scales, (std::vector<double>{0.25, 1.0}));
   EXPECT_EQ(c.registration.outer_iterations, 6);
   EXPECT_EQ(c.registration.coarse_outer_iterations, 3);
@@ -271,6 +274,11 @@ registration:
                           "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {mirror_check: "
                           "{cost_tolerance: -0.1}}\n");
   EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_mirror.yaml")), "mirror_check needs");
+  test_support::writeText(dir.file("bad_retry.yaml"),
+                          "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {depth_retry: "
+                          "{shifts_mm: [-15, 0]}}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_retry.yaml")),
+                    "depth_retry: shifts_mm must be finite and non-zero");
 }
 
 TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {

@@ -297,6 +297,7 @@ TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
             registration::neutralDeviation(knee.ligaments, knee.coordinates(truth[0], truth[1])));
   registration::RegistrationSettings settings;
   settings.mirror_check.enabled = false;
+  settings.depth_retry.enabled = false;  // the mirror check alone
   const std::vector<registration::ViewImage> views = {{scene.frame.images[0], camera}};
   const auto unchecked = registration::Registrar(scene.bones, settings, {knee}).solve(views, start);
   ASSERT_FALSE(registration::meetsSuccessCriterion(
@@ -311,6 +312,50 @@ TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
   }
   // The check's second solve is counted.
   EXPECT_GT(checked.cost_evaluations, unchecked.cost_evaluations);
+}
+
+// Both bones start 20-26 mm too near the source and 3.4 deg off, from where the solve settles
+// on the wrong size with the wrong tilts. The quality status says so, and the retry from the
+// result moved along the beam finds the truth.
+TEST(Registrar, DepthRetryRecoversAStartFarAlongTheBeam) {
+  const Scene scene;
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const geometry::XrayCamera& camera = scene.simulator.views()[0].camera;
+  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  std::vector<Pose> start = truth;
+  for (int b = 0; b < 2; ++b) {
+    Pose in_camera = camera_from_fixed * truth[b];
+    in_camera.translation().z() -= b == 0 ? 0.020 : 0.026;
+    in_camera.linear() =
+        geometry::rotationX(-0.06) * geometry::rotationY(0.06) * in_camera.linear();
+    start[b] = camera.worldFromCamera() * in_camera;
+  }
+  registration::RegistrationSettings settings;
+  settings.scales = {0.25, 0.5, 1.0};  // the crude protocol's schedule
+  settings.depth_retry.enabled = false;
+  const std::vector<registration::ViewImage> views = {{scene.frame.images[0], camera}};
+  const auto single =
+      registration::Registrar(scene.bones, settings, {kneeJoint()}).solve(views, start);
+  const auto single_status = registration::classifyBones(single, settings.quality);
+  ASSERT_NE(single_status, (std::vector<std::string>{"ok", "ok"}))
+      << "the first solve must end flagged for the test to mean anything";
+  ASSERT_FALSE(registration::meetsSuccessCriterion(
+                   registration::poseError(single.poses[0], truth[0], camera_from_fixed)) &&
+               registration::meetsSuccessCriterion(
+                   registration::poseError(single.poses[1], truth[1], camera_from_fixed)));
+  settings.depth_retry.enabled = true;
+  const auto retried =
+      registration::Registrar(scene.bones, settings, {kneeJoint()}).solve(views, start);
+  EXPECT_EQ(registration::classifyBones(retried, settings.quality),
+            (std::vector<std::string>{"ok", "ok"}));
+  for (int b = 0; b < 2; ++b) {
+    const registration::PoseError error =
+        registration::poseError(retried.poses[b], truth[b], camera_from_fixed);
+    EXPECT_TRUE(registration::meetsSuccessCriterion(error)) << scene.bones[b].name;
+    EXPECT_LT(std::abs(error.translation_mm.z()), 5.0) << scene.bones[b].name;
+  }
+  // The retries' solves are counted.
+  EXPECT_GT(retried.cost_evaluations, single.cost_evaluations);
 }
 
 TEST(MirrorAmbiguity, MirrorKeepsTheSilhouetteOfASymmetricMeshAndNeutralIsMeasuredInBounds) {
