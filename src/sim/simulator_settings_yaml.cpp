@@ -27,6 +27,13 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
                "anatomy",
                "occluder_rod_radius_mm",
                "occluder_material",
+               "marker_grid_spacing_mm",
+               "marker_radius_mm",
+               "marker_plane_from_source_mm",
+               "marker_material",
+               "platform_top_below_joint_mm",
+               "platform_width_mm",
+               "platform_material",
                "seed",
                "start_stamp_s",
                "motion",
@@ -47,6 +54,13 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   r.read("anatomy", &s.anatomy);
   r.read("occluder_rod_radius_mm", &s.occluder_rod_radius_mm);
   r.read("occluder_material", &s.occluder_material);
+  r.read("marker_grid_spacing_mm", &s.marker_grid_spacing_mm);
+  r.read("marker_radius_mm", &s.marker_radius_mm);
+  r.read("marker_plane_from_source_mm", &s.marker_plane_from_source_mm);
+  r.read("marker_material", &s.marker_material);
+  r.read("platform_top_below_joint_mm", &s.platform_top_below_joint_mm);
+  r.read("platform_width_mm", &s.platform_width_mm);
+  r.read("platform_material", &s.platform_material);
   r.read("seed", &s.seed);
   r.read("start_stamp_s", &s.start_stamp_s);
 

@@ -40,11 +40,28 @@ void TrialSimulatorSettings::validate() const {
     throw InputError("simulator: source_to_joint_mm must be > 100 and < principal_distance_mm");
   }
   if (views != 1 && views != 2) throw InputError("simulator: views must be 1 or 2");
-  for (const auto& m : {femoral_material, tray_material, insert_material, occluder_material}) {
+  for (const auto& m : {femoral_material, tray_material, insert_material, occluder_material,
+                        marker_material, platform_material}) {
     imaging::materialByName(m);
   }
   if (!(occluder_rod_radius_mm >= 0.0)) {
     throw InputError("simulator: occluder_rod_radius_mm must be >= 0");
+  }
+  if (!(marker_grid_spacing_mm >= 0.0) || !(marker_radius_mm > 0.0) ||
+      (marker_grid_spacing_mm > 0.0 && marker_grid_spacing_mm <= 2.0 * marker_radius_mm)) {
+    throw InputError(
+        "simulator: marker_grid_spacing_mm must be >= 0 (0: none) and more than the beads' "
+        "diameter, marker_radius_mm > 0");
+  }
+  if (!(marker_plane_from_source_mm > 0.0) ||
+      !(marker_plane_from_source_mm < principal_distance_mm)) {
+    throw InputError(
+        "simulator: marker_plane_from_source_mm must lie between the source and the detector");
+  }
+  if (!(platform_width_mm >= 0.0) || !std::isfinite(platform_top_below_joint_mm)) {
+    throw InputError(
+        "simulator: platform_width_mm must be >= 0 (0: none) and platform_top_below_joint_mm "
+        "finite");
   }
   motion.validate();
   detector.validate();
@@ -99,19 +116,53 @@ TrialSimulator::TrialSimulator(const TrialSimulatorSettings& settings)
         {ellipticCylinderM(15, 15, -400, -55), false, cortical - soft});  // tibial shaft
     anatomy_.push_back({ellipticCylinderM(9, 9, -400, -55), false, soft - cortical});  // marrow
   }
-  placeOccluder();
+  placeLabObjects();
 }
 
-void TrialSimulator::placeOccluder() {
-  if (settings_.occluder_rod_radius_mm <= 0.0) return;
-  // A 400 mm rod along Y, turned to run diagonally across the first view 15 mm below the joint
-  // centre (over the tibial tray), 60 mm nearer the source than the joint: fixed in the lab.
-  const double r = 1e-3 * settings_.occluder_rod_radius_mm;
-  occluder_ = cylinderY(r, r, -0.2, 0.2, 24);
-  const Eigen::Vector3d centre(0.0, 0.015, 1e-3 * settings_.source_to_joint_mm - 0.06);
-  const Pose camera_from_rod =
-      geometry::makePose(geometry::rotationZ(geometry::degToRad(55.0)), centre);
-  occluder_pose_ = views_.front().camera.worldFromCamera() * camera_from_rod;
+void TrialSimulator::placeLabObjects() {
+  const Pose fixed_from_camera = views_.front().camera.worldFromCamera();
+  const double joint_z = 1e-3 * settings_.source_to_joint_mm;
+  if (settings_.occluder_rod_radius_mm > 0.0) {
+    // A 400 mm rod along Y, turned to run diagonally across the first view 15 mm below the
+    // joint centre (over the tibial tray), 60 mm nearer the source than the joint.
+    const double r = 1e-3 * settings_.occluder_rod_radius_mm;
+    const Pose camera_from_rod = geometry::makePose(geometry::rotationZ(geometry::degToRad(55.0)),
+                                                    Eigen::Vector3d(0.0, 0.015, joint_z - 0.06));
+    lab_objects_.push_back(
+        {cylinderY(r, r, -0.2, 0.2, 24), fixed_from_camera * camera_from_rod,
+         imaging::materialByName(settings_.occluder_material).attenuation_per_mm});
+  }
+  if (settings_.marker_grid_spacing_mm > 0.0) {
+    // The grid spans the field of view at its plane (plus one spacing), centred on the beam.
+    const double z = 1e-3 * settings_.marker_plane_from_source_mm;
+    const double scale = z / (1e-3 * settings_.principal_distance_mm);
+    const double half_w = 0.5e-3 * settings_.image_width * settings_.pixel_spacing_mm * scale;
+    const double half_h = 0.5e-3 * settings_.image_height * settings_.pixel_spacing_mm * scale;
+    const double spacing = 1e-3 * settings_.marker_grid_spacing_mm;
+    const Mesh bead = uvSphere(1e-3 * settings_.marker_radius_mm, 8, 16);
+    Mesh grid;
+    for (double x = -std::floor(half_w / spacing) * spacing; x <= half_w + 1e-9; x += spacing) {
+      for (double y = -std::floor(half_h / spacing) * spacing; y <= half_h + 1e-9; y += spacing) {
+        grid.append(bead.transformed(
+            geometry::makePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(x, y, z))));
+      }
+    }
+    lab_objects_.push_back({std::move(grid), fixed_from_camera,
+                            imaging::materialByName(settings_.marker_material).attenuation_per_mm});
+  }
+  if (settings_.platform_width_mm > 0.0) {
+    // Camera y points down the image: the slab hangs below its top edge, 600 mm wide across
+    // the view and 300 mm deep, tilted 3 deg about the beam.
+    const double depth = 0.3;
+    const double top = 1e-3 * settings_.platform_top_below_joint_mm;
+    const Mesh slab = box(Eigen::Vector3d(0.3, 0.5 * depth, 0.5e-3 * settings_.platform_width_mm));
+    const Pose camera_from_slab =
+        geometry::makePose(geometry::rotationZ(geometry::degToRad(3.0)),
+                           Eigen::Vector3d(0.0, top + 0.5 * depth, joint_z));
+    lab_objects_.push_back(
+        {slab, fixed_from_camera * camera_from_slab,
+         imaging::materialByName(settings_.platform_material).attenuation_per_mm});
+  }
 }
 
 SimulatedFrame TrialSimulator::truth(int index) const {
@@ -157,9 +208,8 @@ cv::Mat TrialSimulator::lineIntegral(int index, int view) const {
     objects.push_back({&part.mesh, part.on_femur ? camera_from_femur : camera_from_tibia,
                        part.attenuation_per_mm});
   }
-  if (!occluder_.empty()) {
-    objects.push_back({&occluder_, camera_from_fixed * occluder_pose_,
-                       imaging::materialByName(settings_.occluder_material).attenuation_per_mm});
+  for (const LabObject& object : lab_objects_) {
+    objects.push_back({&object.mesh, camera_from_fixed * object.pose, object.attenuation_per_mm});
   }
   return imaging::Renderer::lineIntegral(v.camera, objects);
 }

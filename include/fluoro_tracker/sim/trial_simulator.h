@@ -35,6 +35,20 @@ struct TrialSimulatorSettings {
   // view diagonally in front of the tibial component; radius 0: none.
   double occluder_rod_radius_mm = 0.0;
   std::string occluder_material = "cocr";
+  // Lab clutter that real frames carry. Metal marker beads on a square grid fixed in the lab
+  // across the whole field (e.g. an image intensifier's distortion-correction grid, or markers
+  // on a calibration frame), in a plane across the first view's beam this far from the source;
+  // spacing 0: none.
+  double marker_grid_spacing_mm = 0.0;
+  double marker_radius_mm = 1.0;
+  double marker_plane_from_source_mm = 1150.0;
+  std::string marker_material = "cocr";
+  // The top edge of a platform or table the subject stands on, seen edge-on: a slab whose top
+  // crosses the first view (tilted 3 deg) this far below the joint centre, its width along the
+  // beam, fixed in the lab; width 0: none.
+  double platform_top_below_joint_mm = 70.0;
+  double platform_width_mm = 0.0;
+  std::string platform_material = "polyethylene";
   KneeMotionSettings motion;
   imaging::DetectorSettings detector;
   KneeImplantDimensions implants;
@@ -103,10 +117,15 @@ class TrialSimulator {
   KneeImplantSet implants_;
   KneeContactSolver contact_;
   std::vector<AnatomyPart> anatomy_;
-  geometry::Mesh occluder_;                                    // empty: none
-  geometry::Pose occluder_pose_ = geometry::Pose::Identity();  // in the fixed frame
+  // Objects fixed in the lab (rod, marker grid, platform): mesh, pose in the fixed frame.
+  struct LabObject {
+    geometry::Mesh mesh;
+    geometry::Pose pose;
+    double attenuation_per_mm;
+  };
+  std::vector<LabObject> lab_objects_;
 
-  void placeOccluder();
+  void placeLabObjects();
   std::vector<SimulatedView> views_;
   std::string fixed_frame_;
 };

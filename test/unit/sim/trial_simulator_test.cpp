@@ -130,6 +130,13 @@ TEST(TrialSimulator, ShippedConfigLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(s.implants.width_mm, d.implants.width_mm);
   EXPECT_DOUBLE_EQ(s.occluder_rod_radius_mm, d.occluder_rod_radius_mm);
   EXPECT_EQ(s.occluder_material, d.occluder_material);
+  EXPECT_DOUBLE_EQ(s.marker_grid_spacing_mm, d.marker_grid_spacing_mm);
+  EXPECT_DOUBLE_EQ(s.marker_radius_mm, d.marker_radius_mm);
+  EXPECT_DOUBLE_EQ(s.marker_plane_from_source_mm, d.marker_plane_from_source_mm);
+  EXPECT_EQ(s.marker_material, d.marker_material);
+  EXPECT_DOUBLE_EQ(s.platform_width_mm, d.platform_width_mm);
+  EXPECT_DOUBLE_EQ(s.platform_top_below_joint_mm, d.platform_top_below_joint_mm);
+  EXPECT_EQ(s.platform_material, d.platform_material);
 }
 
 // Regression: at deep flexion the insert's dished top is seen edge-on and its centre fan folds
@@ -165,4 +172,51 @@ TEST(TrialSimulator, OccluderRodCrossesTheViewWithoutMovingTheBones) {
   EXPECT_LT(covered, 0.05);   // but a thin one
   occluded.occluder_rod_radius_mm = -1.0;
   EXPECT_THROW_WITH(sim::TrialSimulator{occluded}, "occluder_rod_radius_mm");
+}
+
+// Lab clutter: a bead grid adds small spots spread over the whole field, each as deep as a
+// bead's diameter of metal; a platform adds an opaque slab below a straight edge at its set
+// height. Neither moves the bones.
+TEST(TrialSimulator, MarkerGridAndPlatformAddLabFixedClutter) {
+  sim::TrialSimulatorSettings plain;
+  plain.motion.frames = 4;
+  sim::TrialSimulatorSettings markers = plain;
+  markers.marker_grid_spacing_mm = 30.0;
+  markers.marker_radius_mm = 1.5;
+  sim::TrialSimulatorSettings platform = plain;
+  platform.platform_width_mm = 300.0;
+  platform.platform_top_below_joint_mm = 70.0;
+  const sim::TrialSimulator a(plain);
+  const sim::TrialSimulator b(markers);
+  const sim::TrialSimulator c(platform);
+  EXPECT_TRUE(a.truth(2).femur.isApprox(b.truth(2).femur));
+  EXPECT_TRUE(a.truth(2).femur.isApprox(c.truth(2).femur));
+
+  const cv::Mat beads = b.lineIntegral(2, 0) - a.lineIntegral(2, 0);
+  double deepest = 0.0;
+  cv::minMaxLoc(beads, nullptr, &deepest);
+  EXPECT_GT(deepest, 2.0);  // 3 mm of Co-Cr through a bead's centre, ~3 in line integral
+  EXPECT_LT(deepest, 3.2);
+  cv::Mat spots = beads > 0.5;
+  cv::Mat labels;
+  const int count = cv::connectedComponents(spots, labels, 8, CV_32S) - 1;
+  // A 30 mm grid at 1150 mm from the source over the 389 mm detector: 13 x 13 beads.
+  EXPECT_EQ(count, 13 * 13);
+
+  const cv::Mat slab = c.lineIntegral(2, 0) - a.lineIntegral(2, 0);
+  const geometry::XrayCamera& camera = c.views()[0].camera;
+  // 70 mm below the joint centre, at 1000 mm from the source of 1200: 221 px below the image
+  // centre. The slab is 300 mm deep along the diverging beam, so its edge is a ramp: rays 60 px
+  // above miss it (at its far face they pass 59 mm below the centre), rays 60 px below cross all
+  // of it (at its near face, 76 mm below). The edge tilts 3 deg: columns near the centre.
+  const double edge_row = camera.cy() + 70.0 * 1.2 / 0.38;
+  const int column = static_cast<int>(camera.cx());
+  EXPECT_LT(slab.at<double>(static_cast<int>(edge_row) - 60, column), 0.01);
+  EXPECT_NEAR(slab.at<double>(static_cast<int>(edge_row) + 60, column), 300.0 * 0.018, 0.2);
+  EXPECT_GT(slab.at<double>(static_cast<int>(edge_row), column), 0.5);
+
+  platform.platform_width_mm = -1.0;
+  EXPECT_THROW_WITH(sim::TrialSimulator{platform}, "platform_width_mm");
+  markers.marker_grid_spacing_mm = 2.0;  // not more than the beads' diameter
+  EXPECT_THROW_WITH(sim::TrialSimulator{markers}, "marker_grid_spacing_mm");
 }
