@@ -454,6 +454,8 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
   if (best_rank.first == 0.0) return result;
   const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();
   int evaluations = result.cost_evaluations;
+  int solver_iterations = result.solver_iterations;
+  int outer_iterations = result.outer_iterations;
   // From the result, whose in-plane position and rotations are mostly right, rather than from
   // the start (measured on the crude protocol: 91 against 89 % success).
   const std::vector<geometry::Pose> base = result.poses;
@@ -468,6 +470,8 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
     }
     RegistrationResult retry = solveChecked(views, starts, loaded, offset_priors);
     evaluations += retry.cost_evaluations;
+    solver_iterations += retry.solver_iterations;
+    outer_iterations += retry.outer_iterations;
     const auto retry_rank = rank(retry);
     if (retry_rank < best_rank) {
       best_rank = retry_rank;
@@ -476,6 +480,8 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
     if (best_rank.first == 0.0) break;
   }
   result.cost_evaluations = evaluations;
+  result.solver_iterations = solver_iterations;
+  result.outer_iterations = outer_iterations;
   return result;
 }
 
