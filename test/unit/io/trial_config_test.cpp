@@ -316,6 +316,8 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.registration.mirror_check.mirror_reflection, d.mirror_check.mirror_reflection);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.tracking_turn_max_difference_deg,
                    d.mirror_check.tracking_turn_max_difference_deg);
+  EXPECT_EQ(c.registration.depth_retry.enabled, d.depth_retry.enabled);
+  EXPECT_EQ(c.registration.depth_retry.shifts_mm, d.depth_retry.shifts_mm);
   ASSERT_EQ(c.joints.size(), 1u);
   const constraints::ContactSettings contact;
   EXPECT_TRUE(c.joints[0].contact.enabled);
