@@ -57,6 +57,25 @@ cv::Rect regionOfInterest(const geometry::XrayCamera& camera, const std::vector<
 }
 
 // True if the bone's bounding box lies in front of every view's source and overlaps its image.
+// Cost evaluations and iterations of a registration plus the extra solves made for it (mirror
+// check, depth retry), whichever of them is kept.
+struct SolveCounts {
+  int cost_evaluations = 0;
+  int solver_iterations = 0;
+  int outer_iterations = 0;
+  explicit SolveCounts(const RegistrationResult& first) { add(first); }
+  void add(const RegistrationResult& solve) {
+    cost_evaluations += solve.cost_evaluations;
+    solver_iterations += solve.solver_iterations;
+    outer_iterations += solve.outer_iterations;
+  }
+  void writeTo(RegistrationResult* result) const {
+    result->cost_evaluations = cost_evaluations;
+    result->solver_iterations = solver_iterations;
+    result->outer_iterations = outer_iterations;
+  }
+};
+
 bool isViewable(const BoneModel& bone, const geometry::Pose& pose,
                 const std::vector<ViewImage>& views) {
   for (const auto& view : views) {
@@ -453,9 +472,7 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
   auto best_rank = rank(result);
   if (best_rank.first == 0.0) return result;
   const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();
-  int evaluations = result.cost_evaluations;
-  int solver_iterations = result.solver_iterations;
-  int outer_iterations = result.outer_iterations;
+  SolveCounts counts(result);
   // From the result, whose in-plane position and rotations are mostly right, rather than from
   // the start (measured on the crude protocol: 91 against 89 % success).
   const std::vector<geometry::Pose> base = result.poses;
@@ -469,9 +486,7 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
       starts[b] = camera_from_fixed.inverse() * in_camera;
     }
     RegistrationResult retry = solveChecked(views, starts, loaded, offset_priors);
-    evaluations += retry.cost_evaluations;
-    solver_iterations += retry.solver_iterations;
-    outer_iterations += retry.outer_iterations;
+    counts.add(retry);
     const auto retry_rank = rank(retry);
     if (retry_rank < best_rank) {
       best_rank = retry_rank;
@@ -479,9 +494,7 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
     }
     if (best_rank.first == 0.0) break;
   }
-  result.cost_evaluations = evaluations;
-  result.solver_iterations = solver_iterations;
-  result.outer_iterations = outer_iterations;
+  counts.writeTo(&result);
   return result;
 }
 
@@ -507,9 +520,7 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
       candidates.push_back(turnReflectedAcrossBeam(child));
     const double first_cost = result.final_cost;
     double best_deviation = deviation(result.poses);
-    int evaluations = result.cost_evaluations;
-    int solver_iterations = result.solver_iterations;
-    int outer_iterations = result.outer_iterations;
+    SolveCounts counts(result);
     RegistrationResult best;
     bool replaced = false;
     for (const geometry::Pose& candidate : candidates) {
@@ -522,9 +533,7 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
       starts[joint.child] = camera_from_fixed.inverse() * candidate;
       // The mirror differs from the solution in rotation only: the finest scale's maps serve.
       RegistrationResult mirror = solveFrom(views, starts, loaded, offset_priors, &finest_maps);
-      evaluations += mirror.cost_evaluations;
-      solver_iterations += mirror.solver_iterations;
-      outer_iterations += mirror.outer_iterations;
+      counts.add(mirror);
       if (mirror.diverged[joint.parent] || mirror.diverged[joint.child] ||
           mirror.final_cost > (1.0 + settings_.mirror_check.cost_tolerance) * first_cost) {
         continue;
@@ -537,9 +546,7 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
       }
     }
     if (replaced) result = std::move(best);
-    result.cost_evaluations = evaluations;
-    result.solver_iterations = solver_iterations;
-    result.outer_iterations = outer_iterations;
+    counts.writeTo(&result);
   }
   return result;
 }
