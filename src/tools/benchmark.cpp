@@ -20,6 +20,7 @@
 #include <memory>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 
 #include <boost/program_options.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -762,7 +763,16 @@ int main(int argc, char** argv) {
       settings.depth_retry.shifts_mm.clear();
       std::stringstream list(depth_retry_shifts);
       for (std::string item; std::getline(list, item, ',');) {
-        settings.depth_retry.shifts_mm.push_back(std::stod(item));
+        std::size_t used = 0;
+        double shift = 0.0;
+        try {
+          shift = std::stod(item, &used);
+        } catch (const std::logic_error&) {
+        }
+        if (used == 0 || used != item.size()) {
+          throw InputError("--depth-retry-shifts-mm: '" + item + "' is not a number (mm)");
+        }
+        settings.depth_retry.shifts_mm.push_back(shift);
       }
     }
     if (vm.count("staged")) {
