@@ -263,6 +263,9 @@ void PoseSearchSettings::validate() const {
     throw InputError("registration search: screening_scale must be in (0, 1]");
   }
   if (refine_scales.empty()) throw InputError("registration search: refine_scales is empty");
+  if (!(edge_high_fraction > 0.0 && edge_high_fraction <= 1.0)) {
+    throw InputError("registration search: edge_high_fraction must be in (0, 1]");
+  }
   if (!(refine_robust_scale_px > 0.0)) {
     throw InputError("registration search: refine_robust_scale_px must be > 0");
   }
@@ -304,6 +307,7 @@ PoseSearch::PoseSearch(std::shared_ptr<const Registrar> registrar, PoseSearchSet
   // 0180: a tibial tray turned 28 deg about its stem won). The search works on the window
   // alone; the final joint registration uses the trial's edge settings.
   refine.edges.clahe = false;
+  refine.edges.auto_high_fraction = settings_.edge_high_fraction;
   search_edges_ = refine.edges;
   // Starts are several pixels off at the coarsest scale: a wider robust kernel keeps their
   // edges in the basin (the final joint registration uses the trial's own settings).

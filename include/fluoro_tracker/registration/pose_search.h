@@ -54,6 +54,15 @@ struct PoseSearchSettings {
   // degrees and millimetres off converges.
   std::vector<double> refine_scales = {0.25, 0.5, 1.0};
   double refine_robust_scale_px = 16.0;  // Cauchy scale of the refinement, full-resolution px
+  // Canny's automatic high threshold for the search's edge maps (screening and refinement), as
+  // a fraction of the region's 99.5th-percentile gradient (imaging::EdgeMapSettings::
+  // auto_high_fraction). The search works on the grey-level window without local equalisation,
+  // where an implant's strong rim against soft tissue sets the threshold and its weaker rims
+  // against bone drop out (a bright femoral component's box in deep flexion): the coarse
+  // refinement of a start a few degrees off, even of the true pose, then slides tens of
+  // millimetres along the beam. Measured with `benchmark --protocol search` (100 frames,
+  // contact + ligaments): see PoseSearchSettings in the README.
+  double edge_high_fraction = 0.15;
   // Choosing among the refined hypotheses: each bone's contour inlier fraction, minus these
   // per unit of a joint's ligament envelope violation (deg or mm) and penetration (mm).
   double envelope_penalty_per_unit = 0.02;

@@ -343,6 +343,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.search.wide_refined_per_bone, search.wide_refined_per_bone);
   EXPECT_DOUBLE_EQ(c.search.wide_screening_px, search.wide_screening_px);
   EXPECT_DOUBLE_EQ(c.search.screening_scale, search.screening_scale);
+  EXPECT_DOUBLE_EQ(c.search.edge_high_fraction, search.edge_high_fraction);
 }
 
 TEST(TrialConfig, SearchSectionFillsTheSettingsAndRejectsBadValues) {
@@ -351,14 +352,20 @@ TEST(TrialConfig, SearchSectionFillsTheSettingsAndRejectsBadValues) {
 bones:
   - {name: femur, mesh: f.stl}
 registration:
-  search: {refined_per_bone: 3, wide_refined_per_bone: 0, wide_screening_px: 3.0}
+  search: {refined_per_bone: 3, wide_refined_per_bone: 0, wide_screening_px: 3.0,
+           edge_high_fraction: 0.2}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_EQ(c.search.refined_per_bone, 3);
   EXPECT_EQ(c.search.wide_refined_per_bone, 0);
   EXPECT_DOUBLE_EQ(c.search.wide_screening_px, 3.0);
+  EXPECT_DOUBLE_EQ(c.search.edge_high_fraction, 0.2);
   test_support::writeText(dir.file("bad.yaml"),
                           "bones:\n  - {name: femur, mesh: f.stl}\n"
                           "registration: {search: {wide_screening_px: 0.5}}\n");
   EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad.yaml")), "wide_screening_px >= 1");
+  test_support::writeText(dir.file("bad_edges.yaml"),
+                          "bones:\n  - {name: femur, mesh: f.stl}\n"
+                          "registration: {search: {edge_high_fraction: 0}}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_edges.yaml")), "edge_high_fraction");
 }

@@ -144,6 +144,41 @@ TEST(PoseSearch, FindsBothComponentsWithNoGuess) {
   }
 }
 
+// Bright implants (an inverted display) in deep flexion: the femoral component's box rims
+// against bone are much fainter than its outer rim against soft tissue. Edges thresholded as
+// the registration thresholds them (without local equalisation) lose those rims, and the
+// component's refinement slides along the beam even from near its true pose; the search's own,
+// lower threshold (PoseSearchSettings::edge_high_fraction) keeps them.
+TEST(PoseSearch, FindsABrightFemoralComponentInDeepFlexion) {
+  sim::TrialSimulatorSettings s;
+  s.motion.frames = 25;
+  s.motion.max_flexion_deg = 105.7;
+  s.view_roll_deg = -1.2;
+  s.detector.implants_bright = true;
+  const sim::TrialSimulator sim(s);
+  std::mt19937_64 rng(5);
+  const auto frame = sim.render(16, &rng);
+  const geometry::XrayCamera& camera = sim.views()[0].camera;
+  const registration::PoseSearch search(simulatedKneeRegistrar(sim));
+  const auto found = search.search({{frame.images[0], camera}});
+  expectBothBonesWithinCriterion(found.registration, frame, camera, "bright, deep flexion");
+  registration::PoseSearchSettings registration_edges;
+  registration_edges.edge_high_fraction = imaging::EdgeMapSettings().auto_high_fraction;
+  ASSERT_GT(registration_edges.edge_high_fraction, search.settings().edge_high_fraction);
+  const registration::PoseSearch with_registration_edges(simulatedKneeRegistrar(sim),
+                                                         registration_edges);
+  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  bool femur_found = false;
+  try {
+    const auto r = with_registration_edges.search({{frame.images[0], camera}});
+    femur_found = registration::meetsSuccessCriterion(
+        registration::poseError(r.registration.poses[0], frame.femur, camera_from_fixed));
+  } catch (const InputError&) {
+  }
+  EXPECT_FALSE(femur_found) << "the registration's edge threshold also finds this femoral "
+                               "component: the test shows nothing about the search's own";
+}
+
 TEST(PoseSearch, ABlankFrameIsReportedNotGuessed) {
   sim::TrialSimulatorSettings s;
   s.motion.frames = 10;
