@@ -392,7 +392,10 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
         continue;  // a start behind the source or outside the views: not a hypothesis
       }
       ++found.hypotheses;
-      if (refined.diverged[0] || !geometry::isValidPose(refined.poses[0])) continue;
+      // A refinement stopped for travelling too far from its start (diverged) still returns the
+      // last pose within reach, measured like any other: a start 100 mm off along the beam (a
+      // region's size misjudged by 10 %) can reach the implant's true pose only just outside.
+      if (!geometry::isValidPose(refined.poses[0])) continue;
       const Hypothesis h{refined.poses[0], refined.quality[0].contour_inlier_fraction};
       auto same =
           std::find_if(hypotheses[b].begin(), hypotheses[b].end(),

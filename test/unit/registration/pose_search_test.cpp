@@ -157,17 +157,22 @@ TEST(PoseSearch, FindsABrightFemoralComponentInDeepFlexion) {
   s.detector.implants_bright = true;
   const sim::TrialSimulator sim(s);
   std::mt19937_64 rng(5);
-  const auto frame = sim.render(16, &rng);
+  const auto frame = sim.render(8, &rng);
   const geometry::XrayCamera& camera = sim.views()[0].camera;
+  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
   const registration::PoseSearch search(simulatedKneeRegistrar(sim));
   const auto found = search.search({{frame.images[0], camera}});
-  expectBothBonesWithinCriterion(found.registration, frame, camera, "bright, deep flexion");
+  const auto femur =
+      registration::poseError(found.registration.poses[0], frame.femur, camera_from_fixed);
+  EXPECT_TRUE(registration::meetsSuccessCriterion(femur))
+      << "femoral component: in-plane " << femur.translation_mm.head<2>().transpose()
+      << " mm, rotation " << femur.rotation_deg.transpose() << " deg";
+  EXPECT_EQ(found.status[0], "ok");
   registration::PoseSearchSettings registration_edges;
   registration_edges.edge_high_fraction = imaging::EdgeMapSettings().auto_high_fraction;
   ASSERT_GT(registration_edges.edge_high_fraction, search.settings().edge_high_fraction);
   const registration::PoseSearch with_registration_edges(simulatedKneeRegistrar(sim),
                                                          registration_edges);
-  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
   bool femur_found = false;
   try {
     const auto r = with_registration_edges.search({{frame.images[0], camera}});
