@@ -56,14 +56,15 @@ struct PoseSearchSettings {
   double refine_robust_scale_px = 16.0;  // Cauchy scale of the refinement, full-resolution px
   // Canny's automatic high threshold for the search's edge maps (screening and refinement), as
   // a fraction of the region's 99.5th-percentile gradient (imaging::EdgeMapSettings::
-  // auto_high_fraction). The search works on the grey-level window without local equalisation,
-  // where an implant's strong rim against soft tissue sets the threshold and its weaker rims
-  // against bone drop out (a bright femoral component's box in deep flexion): the coarse
-  // refinement of a start a few degrees off, even of the true pose, then slides tens of
-  // millimetres along the beam. Measured with `benchmark --protocol search --conditions
-  // contact+ligaments` (100 frames each; 0.3 -> 0.15): seed 7 80 -> 94 %, seed 11 89 -> 88 %,
-  // seed 13 81 -> 83 % (0.2: 91 and 88 %); the real Kneel frames 3/3 either way.
-  double edge_high_fraction = 0.15;
+  // auto_high_fraction; the default is the registration's). The search works on the grey-level
+  // window without local equalisation, where an implant's strong rim against soft tissue sets
+  // the threshold and its weaker rims against bone can drop out: a bright femoral component's
+  // box in deep flexion, whose coarse refinement then slides tens of millimetres along the
+  // beam. Lower it for such images, not for cluttered ones. Measured with `benchmark --protocol
+  // search --conditions contact+ligaments` (100 frames per seed, seeds 7 / 11): 0.3 89 / 93 %,
+  // 0.15 95 / 94 %; but with 0.15 `scripts/robustness_benchmark.sh --no-guess lab_clutter`
+  // (marker beads) lost its first 8 frames (52/60 against 60/60), so the default stays 0.3.
+  double edge_high_fraction = 0.3;
   // Choosing among the refined hypotheses: each bone's contour inlier fraction, minus these
   // per unit of a joint's ligament envelope violation (deg or mm) and penetration (mm).
   double envelope_penalty_per_unit = 0.02;
