@@ -56,7 +56,7 @@ struct PoseSearchSettings {
   double refine_robust_scale_px = 16.0;  // Cauchy scale of the refinement, full-resolution px
   // Canny's automatic high threshold for the search's edge maps (screening and refinement), as
   // a fraction of the region's 99.5th-percentile gradient (imaging::EdgeMapSettings::
-  // auto_high_fraction; the default is the registration's). The search works on the grey-level
+  // auto_high_fraction, whose default it shares). The search works on the grey-level
   // window without local equalisation, where an implant's strong rim against soft tissue sets
   // the threshold and its weaker rims against bone can drop out: a bright femoral component's
   // box in deep flexion, whose coarse refinement then slides tens of millimetres along the
