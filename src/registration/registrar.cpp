@@ -56,7 +56,6 @@ cv::Rect regionOfInterest(const geometry::XrayCamera& camera, const std::vector<
   return cv::Rect(x0, y0, x1 - x0, y1 - y0) & cv::Rect(0, 0, camera.width(), camera.height());
 }
 
-// True if the bone's bounding box lies in front of every view's source and overlaps its image.
 // Cost evaluations and iterations of a registration plus the extra solves made for it (mirror
 // check, depth retry), whichever of them is kept.
 struct SolveCounts {
@@ -76,6 +75,7 @@ struct SolveCounts {
   }
 };
 
+// True if the bone's bounding box lies in front of every view's source and overlaps its image.
 bool isViewable(const BoneModel& bone, const geometry::Pose& pose,
                 const std::vector<ViewImage>& views) {
   for (const auto& view : views) {

@@ -20,11 +20,11 @@
 #include <memory>
 #include <random>
 #include <sstream>
-#include <stdexcept>
 
 #include <boost/program_options.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "../io/text_lines.h"
 #include "command_line.h"
 #include "fluoro_tracker/constraints/articular_contact.h"
 #include "fluoro_tracker/imaging/contour_overlay.h"
@@ -763,16 +763,8 @@ int main(int argc, char** argv) {
       settings.depth_retry.shifts_mm.clear();
       std::stringstream list(depth_retry_shifts);
       for (std::string item; std::getline(list, item, ',');) {
-        std::size_t used = 0;
-        double shift = 0.0;
-        try {
-          shift = std::stod(item, &used);
-        } catch (const std::logic_error&) {
-        }
-        if (used == 0 || used != item.size()) {
-          throw InputError("--depth-retry-shifts-mm: '" + item + "' is not a number (mm)");
-        }
-        settings.depth_retry.shifts_mm.push_back(shift);
+        settings.depth_retry.shifts_mm.push_back(
+            io::detail::parseNumbers(item, 1, "--depth-retry-shifts-mm")[0]);
       }
     }
     if (vm.count("staged")) {
