@@ -266,6 +266,9 @@ void PoseSearchSettings::validate() const {
   if (!(edge_high_fraction > 0.0 && edge_high_fraction <= 1.0)) {
     throw InputError("registration search: edge_high_fraction must be in (0, 1]");
   }
+  if (!(retry_edge_high_fraction >= 0.0 && retry_edge_high_fraction <= 1.0)) {
+    throw InputError("registration search: retry_edge_high_fraction must be in [0, 1] (0: none)");
+  }
   if (!(refine_robust_scale_px > 0.0)) {
     throw InputError("registration search: refine_robust_scale_px must be > 0");
   }
@@ -307,18 +310,28 @@ PoseSearch::PoseSearch(std::shared_ptr<const Registrar> registrar, PoseSearchSet
   // 0180: a tibial tray turned 28 deg about its stem won). The search works on the window
   // alone; the final joint registration uses the trial's edge settings.
   refine.edges.clahe = false;
-  refine.edges.auto_high_fraction = settings_.edge_high_fraction;
-  search_edges_ = refine.edges;
   // Starts are several pixels off at the coarsest scale: a wider robust kernel keeps their
   // edges in the basin (the final joint registration uses the trial's own settings).
   refine.robust_scale_px = std::max(refine.robust_scale_px, settings_.refine_robust_scale_px);
   // Shape matching is good to tens of millimetres along the beam and a view step in angle.
   refine.max_translation_from_start_m = std::max(refine.max_translation_from_start_m, 0.1);
   refine.max_rotation_from_start_rad = std::max(refine.max_rotation_from_start_rad, 0.8);
+  std::vector<double> high_fractions = {settings_.edge_high_fraction};
+  if (settings_.retry_edge_high_fraction > 0.0) {
+    high_fractions.push_back(settings_.retry_edge_high_fraction);
+  }
+  for (const double high_fraction : high_fractions) {
+    refine.edges.auto_high_fraction = high_fraction;
+    EdgePass pass;
+    pass.edges = refine.edges;
+    for (const auto& bone : registrar_->bones()) {
+      pass.refiners.push_back(std::make_unique<Registrar>(std::vector<BoneModel>{bone}, refine));
+    }
+    passes_.push_back(std::move(pass));
+  }
   for (const auto& bone : registrar_->bones()) {
     libraries_.push_back(std::make_unique<imaging::SilhouetteLibrary>(
         bone.silhouette->mesh(), settings_.direction_step_deg));
-    refiners_.push_back(std::make_unique<Registrar>(std::vector<BoneModel>{bone}, refine));
   }
   for (const JointModel& joint : registrar_->joints()) {
     envelope_.push_back(envelopeSamples(joint, 10.0, false));
@@ -347,12 +360,54 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
     throw InputError("pose search: " + std::to_string(seeds.size()) + " seed pose(s) for " +
                      std::to_string(bones) + " bone(s)");
   }
+  const auto finish = [&](PoseSearchResult found, int passes) {
+    found.passes = passes;
+    found.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return found;
+  };
+  std::optional<PoseSearchResult> first;
+  std::optional<InputError> first_error;
+  try {
+    first = searchPass(passes_.front(), views, seeds);
+  } catch (const InputError& e) {
+    first_error = e;  // nothing found with the first pass's edges
+  }
+  if (first && std::all_of(first->status.begin(), first->status.end(),
+                           [](const std::string& s) { return s == "ok"; })) {
+    return finish(std::move(*first), 1);
+  }
+  if (passes_.size() < 2) {
+    if (first_error) throw *first_error;
+    return finish(std::move(*first), 1);
+  }
+  PoseSearchResult retry;
+  try {
+    retry = searchPass(passes_[1], views, seeds);
+  } catch (const InputError&) {
+    if (first_error) throw *first_error;
+    return finish(std::move(*first), 2);
+  }
+  if (first_error) return finish(std::move(retry), 2);
+  // Fewer bones suspect or lost first; between equal statuses, the better explanation.
+  const auto trouble = [](const PoseSearchResult& r) {
+    int sum = 0;
+    for (const std::string& s : r.status) sum += s == "ok" ? 0 : s == "suspect" ? 1 : 2;
+    return sum;
+  };
+  const bool retry_better = trouble(retry) < trouble(*first) ||
+                            (trouble(retry) == trouble(*first) && retry.score > first->score);
+  return finish(retry_better ? std::move(retry) : std::move(*first), 2);
+}
+
+PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<ViewImage>& views,
+                                        const std::vector<geometry::Pose>& seeds) const {
+  const std::size_t bones = registrar_->bones().size();
   const ViewImage& first = views.front();
   const std::vector<imaging::ImplantBlob> blobs =
       imaging::findImplantBlobs(first.image, settings_.blobs);
   PoseSearchResult found;
   found.regions = static_cast<int>(blobs.size());
-  const imaging::EdgeMap coarse(first.image, first.camera, search_edges_, cv::Rect(),
+  const imaging::EdgeMap coarse(first.image, first.camera, pass.edges, cv::Rect(),
                                 settings_.screening_scale);
 
   // Screens starts on the coarse edge map and refines the best few, one bone at a time.
@@ -387,7 +442,7 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
     for (const geometry::Pose& s : refined_starts) {
       RegistrationResult refined;
       try {
-        refined = refiners_[b]->solve(views, {s});
+        refined = pass.refiners[b]->solve(views, {s});
       } catch (const InputError&) {
         continue;  // a start behind the source or outside the views: not a hypothesis
       }
@@ -616,8 +671,8 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
   if (found.registration.poses.empty()) {
     throw InputError("pose search: no combination of the bones' hypotheses could be registered");
   }
+  found.score = best_score;
   found.status = classifyBones(found.registration, registrar_->settings().quality);
-  found.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return found;
 }
 

@@ -65,6 +65,12 @@ struct PoseSearchSettings {
   // 0.15 95 / 94 %; but with 0.15 `scripts/robustness_benchmark.sh --no-guess lab_clutter`
   // (marker beads) lost its first 8 frames (52/60 against 60/60), so the default stays 0.3.
   double edge_high_fraction = 0.3;
+  // A second pass when the first leaves any bone not ok (classifyBones) or finds no pose for
+  // one: the whole search again with Canny's high threshold at this fraction, keeping the pass
+  // whose result has the better statuses, then the better score. A frame the default
+  // threshold serves (clutter) is searched once and keeps its result; a bright implant whose
+  // faint rims the default loses gets the lower threshold. 0: no second pass.
+  double retry_edge_high_fraction = 0.15;
   // Choosing among the refined hypotheses: each bone's contour inlier fraction, minus these
   // per unit of a joint's ligament envelope violation (deg or mm) and penetration (mm).
   double envelope_penalty_per_unit = 0.02;
@@ -83,6 +89,10 @@ struct PoseSearchResult {
   std::vector<std::string> status;  // per bone, classifyBones of that registration
   int regions = 0;                  // candidate implant regions found in the first view
   int hypotheses = 0;               // poses refined
+  // The chosen combination's contour inlier fractions minus its joints' penalties (envelope,
+  // penetration, neutral deviation), as the search ranks its finalists.
+  double score = 0.0;
+  int passes = 1;  // 2 when the retry pass ran (PoseSearchSettings::retry_edge_high_fraction)
   double seconds = 0.0;
 };
 
@@ -110,8 +120,12 @@ class PoseSearch {
   std::shared_ptr<const Registrar> registrar_;
   PoseSearchSettings settings_;
   std::vector<std::unique_ptr<imaging::SilhouetteLibrary>> libraries_;  // per bone
-  std::vector<std::unique_ptr<Registrar>> refiners_;                    // per bone, alone
-  imaging::EdgeMapSettings search_edges_;  // the refiners' edges, also for screening
+  // The edge settings of one pass of the search and its single-bone refiners (per bone).
+  struct EdgePass {
+    imaging::EdgeMapSettings edges;  // the refiners' edges, also for screening
+    std::vector<std::unique_ptr<Registrar>> refiners;
+  };
+  std::vector<EdgePass> passes_;  // the first pass, then the retry pass if configured
   // Per joint: the child's pose in the parent's mesh frame across the envelope.
   std::vector<std::vector<geometry::Pose>> envelope_;
   struct JointLibrary {
@@ -120,6 +134,9 @@ class PoseSearch {
     std::unique_ptr<imaging::SilhouetteLibrary> library;
   };
   std::vector<JointLibrary> joint_libraries_;
+
+  PoseSearchResult searchPass(const EdgePass& pass, const std::vector<ViewImage>& views,
+                              const std::vector<geometry::Pose>& seeds) const;
 };
 
 }  // namespace registration

@@ -344,6 +344,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.search.wide_screening_px, search.wide_screening_px);
   EXPECT_DOUBLE_EQ(c.search.screening_scale, search.screening_scale);
   EXPECT_DOUBLE_EQ(c.search.edge_high_fraction, search.edge_high_fraction);
+  EXPECT_DOUBLE_EQ(c.search.retry_edge_high_fraction, search.retry_edge_high_fraction);
 }
 
 TEST(TrialConfig, SearchSectionFillsTheSettingsAndRejectsBadValues) {
@@ -353,13 +354,14 @@ bones:
   - {name: femur, mesh: f.stl}
 registration:
   search: {refined_per_bone: 3, wide_refined_per_bone: 0, wide_screening_px: 3.0,
-           edge_high_fraction: 0.2}
+           edge_high_fraction: 0.2, retry_edge_high_fraction: 0}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_EQ(c.search.refined_per_bone, 3);
   EXPECT_EQ(c.search.wide_refined_per_bone, 0);
   EXPECT_DOUBLE_EQ(c.search.wide_screening_px, 3.0);
   EXPECT_DOUBLE_EQ(c.search.edge_high_fraction, 0.2);
+  EXPECT_DOUBLE_EQ(c.search.retry_edge_high_fraction, 0.0);
   test_support::writeText(dir.file("bad.yaml"),
                           "bones:\n  - {name: femur, mesh: f.stl}\n"
                           "registration: {search: {wide_screening_px: 0.5}}\n");
@@ -368,4 +370,8 @@ registration:
                           "bones:\n  - {name: femur, mesh: f.stl}\n"
                           "registration: {search: {edge_high_fraction: 0}}\n");
   EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_edges.yaml")), "edge_high_fraction");
+  test_support::writeText(dir.file("bad_retry.yaml"),
+                          "bones:\n  - {name: femur, mesh: f.stl}\n"
+                          "registration: {search: {retry_edge_high_fraction: 1.5}}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_retry.yaml")), "retry_edge_high_fraction");
 }
