@@ -281,12 +281,13 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   }
   const YamlSection mirror = section.child("mirror_check");
   mirror.allowOnly({"enabled", "cost_tolerance", "min_difference_deg", "max_difference_deg",
-                    "tracking_turn_max_difference_deg", "outer_iterations", "solver_iterations",
-                    "turn_reflection", "mirror_reflection"});
+                    "min_neutral_gain", "tracking_turn_max_difference_deg", "outer_iterations",
+                    "solver_iterations", "turn_reflection", "mirror_reflection"});
   mirror.read("enabled", &r.mirror_check.enabled);
   mirror.read("cost_tolerance", &r.mirror_check.cost_tolerance);
   mirror.read("min_difference_deg", &r.mirror_check.min_difference_deg);
   mirror.read("max_difference_deg", &r.mirror_check.max_difference_deg);
+  mirror.read("min_neutral_gain", &r.mirror_check.min_neutral_gain);
   mirror.read("tracking_turn_max_difference_deg", &r.mirror_check.tracking_turn_max_difference_deg);
   mirror.read("outer_iterations", &r.mirror_check.outer_iterations);
   mirror.read("solver_iterations", &r.mirror_check.solver_iterations);

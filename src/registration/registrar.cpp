@@ -403,11 +403,13 @@ void RegistrationSettings::validate() const {
     }
   }
   if (!(mirror_check.cost_tolerance >= 0.0) || !(mirror_check.min_difference_deg >= 0.0) ||
+      !(mirror_check.min_neutral_gain >= 0.0) ||
       !(mirror_check.max_difference_deg >= mirror_check.min_difference_deg) ||
       !(mirror_check.tracking_turn_max_difference_deg >= 0.0) ||
       mirror_check.outer_iterations < 1 || mirror_check.solver_iterations < 1) {
     throw InputError(
         "registration: mirror_check needs cost_tolerance >= 0, min_difference_deg >= 0, "
+        "min_neutral_gain >= 0, "
         "max_difference_deg >= min_difference_deg, tracking_turn_max_difference_deg >= 0, "
         "outer_iterations >= 1 and solver_iterations >= 1");
   }
@@ -539,7 +541,7 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
         continue;
       }
       const double mirror_deviation = deviation(mirror.poses);
-      if (mirror_deviation < best_deviation) {
+      if (mirror_deviation < best_deviation - settings_.mirror_check.min_neutral_gain) {
         best_deviation = mirror_deviation;
         best = std::move(mirror);
         replaced = true;

@@ -681,6 +681,10 @@ int main(int argc, char** argv) {
       po::value(&settings.mirror_check.cost_tolerance)
           ->default_value(settings.mirror_check.cost_tolerance),
       "the mirror solution is kept only if its final cost is within this fraction of the first")(
+      "mirror-min-neutral-gain",
+      po::value(&settings.mirror_check.min_neutral_gain)
+          ->default_value(settings.mirror_check.min_neutral_gain),
+      "... and its joint is nearer neutral by more than this (units of the ligament bounds)")(
       "mirror-outer-iterations",
       po::value(&settings.mirror_check.outer_iterations)
           ->default_value(settings.mirror_check.outer_iterations),

@@ -52,7 +52,14 @@ struct MirrorCheckSettings {
   double cost_tolerance = 0.1;
   double min_difference_deg = 1.0;    // mirrors nearer the solution than this are not tried
   double max_difference_deg = 180.0;  // ... nor those farther than this
-  int outer_iterations = 2;           // of the mirror's solve (finest scale, each stage)
+  // The mirror replaces the solution only when its joint is nearer neutral by more than this
+  // (neutralDeviation, in units of the ligament bounds). The knee's coordinates from one view
+  // scatter by about 0.3 deg in adduction (0.1 of its 3 deg bound) and 0.7 deg in internal
+  // rotation, so a smaller gain is noise: a tray turned 6 deg one way about its stem and its
+  // turn reflection 6 deg the other way are equally neutral, and the check used to swap such
+  // pairs at random. Measured (`benchmark --conditions contact`): see README.
+  double min_neutral_gain = 0.1;
+  int outer_iterations = 2;  // of the mirror's solve (finest scale, each stage)
   // Levenberg-Marquardt iterations per outer iteration of the mirror's solve (at most the
   // registration's own). Fewer save time but lose accuracy on poor images: 4 instead of 8
   // measured the same success on the standard and crude protocols (42 instead of 47 ms per

@@ -205,7 +205,7 @@ registration:
   edges: {clahe: true, canny_high: 60}
   mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, solver_iterations: 5,
                  turn_reflection: false, mirror_reflection: false, max_difference_deg: 30,
-                 tracking_turn_max_difference_deg: 4}
+                 tracking_turn_max_difference_deg: 4, min_neutral_gain: 0.25}
   depth_retry: {enabled: false, shifts_mm: [-10, 10, -25]}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
@@ -217,6 +217,7 @@ registration:
   EXPECT_FALSE(c.registration.mirror_check.mirror_reflection);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.max_difference_deg, 30.0);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.tracking_turn_max_difference_deg, 4.0);
+  EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_neutral_gain, 0.25);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_difference_deg,
                    registration::MirrorCheckSettings().min_difference_deg);
   EXPECT_FALSE(c.registration.depth_retry.enabled);
@@ -274,6 +275,10 @@ registration:
                           "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {mirror_check: "
                           "{cost_tolerance: -0.1}}\n");
   EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_mirror.yaml")), "mirror_check needs");
+  test_support::writeText(dir.file("bad_gain.yaml"),
+                          "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {mirror_check: "
+                          "{min_neutral_gain: -0.1}}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_gain.yaml")), "min_neutral_gain >= 0");
   test_support::writeText(dir.file("bad_retry.yaml"),
                           "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {depth_retry: "
                           "{shifts_mm: [-15, 0]}}\n");

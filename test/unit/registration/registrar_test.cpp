@@ -312,6 +312,19 @@ TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
   }
   // The check's second solve is counted.
   EXPECT_GT(checked.cost_evaluations, unchecked.cost_evaluations);
+
+  // The mirror replaces the solution only when its joint is nearer neutral by more than
+  // min_neutral_gain: just above this frame's gain, the check keeps the mirror start's result.
+  const auto deviation = [&](const std::vector<Pose>& poses) {
+    return registration::neutralDeviation(knee.ligaments, knee.coordinates(poses[0], poses[1]));
+  };
+  const double gain = deviation(unchecked.poses) - deviation(checked.poses);
+  ASSERT_GT(gain, settings.mirror_check.min_neutral_gain);
+  settings.mirror_check.min_neutral_gain = gain + 0.01;
+  const auto kept = registration::Registrar(scene.bones, settings, {knee}).solve(views, start);
+  EXPECT_FALSE(registration::meetsSuccessCriterion(
+      registration::poseError(kept.poses[1], truth[1], camera_from_fixed)));
+  EXPECT_NEAR(deviation(kept.poses), deviation(unchecked.poses), 1e-9);
 }
 
 // Both bones start 20-26 mm too near the source and 3.4 deg off, from where the solve settles
