@@ -39,6 +39,10 @@ geometry::Pose turnReflectedAcrossBeam(const geometry::Pose& camera_from_mesh) {
   return turned;
 }
 
+geometry::Pose tiltReflectedAcrossBeam(const geometry::Pose& camera_from_mesh) {
+  return mirroredAcrossBeam(turnReflectedAcrossBeam(camera_from_mesh));
+}
+
 double neutralDeviation(const constraints::LigamentSettings& ligaments,
                         const kinematics::KneeCoordinates& coordinates) {
   return inBoundUnits(geometry::radToDeg(coordinates.adduction_rad), ligaments.bounds[1]) +

@@ -2,6 +2,7 @@
 #include "fluoro_tracker/registration/registrar.h"
 
 #include <algorithm>
+#include <limits>
 #include <array>
 #include <cmath>
 #include <map>
@@ -520,17 +521,30 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
     if (settings_.mirror_check.mirror_reflection) candidates.push_back(mirroredAcrossBeam(child));
     if (settings_.mirror_check.turn_reflection)
       candidates.push_back(turnReflectedAcrossBeam(child));
+    if (settings_.mirror_check.tilt_reflection)
+      candidates.push_back(tiltReflectedAcrossBeam(child));
+    const double min_difference = geometry::degToRad(settings_.mirror_check.min_difference_deg);
     const double first_cost = result.final_cost;
-    double best_deviation = deviation(result.poses);
+    // A candidate must be nearer neutral than the solution by the margin; of those, the nearest.
+    const double required_deviation =
+        deviation(result.poses) - settings_.mirror_check.min_neutral_gain;
+    double best_deviation = std::numeric_limits<double>::infinity();
     SolveCounts counts(result);
     RegistrationResult best;
     bool replaced = false;
-    for (const geometry::Pose& candidate : candidates) {
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+      const geometry::Pose& candidate = candidates[c];
       const double difference = geometry::rotationAngleBetween(candidate.linear(), child.linear());
-      if (difference < geometry::degToRad(settings_.mirror_check.min_difference_deg) ||
+      if (difference < min_difference ||
           difference > geometry::degToRad(settings_.mirror_check.max_difference_deg)) {
         continue;
       }
+      // With the tray's turn near zero, its tilt reflection is its full mirror: one solve serves.
+      const bool tried =
+          std::any_of(candidates.begin(), candidates.begin() + c, [&](const auto& o) {
+            return geometry::rotationAngleBetween(o.linear(), candidate.linear()) < min_difference;
+          });
+      if (tried) continue;
       std::vector<geometry::Pose> starts = result.poses;
       starts[joint.child] = camera_from_fixed.inverse() * candidate;
       // The mirror differs from the solution in rotation only: the finest scale's maps serve.
@@ -541,7 +555,7 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
         continue;
       }
       const double mirror_deviation = deviation(mirror.poses);
-      if (mirror_deviation < best_deviation - settings_.mirror_check.min_neutral_gain) {
+      if (mirror_deviation < required_deviation && mirror_deviation < best_deviation) {
         best_deviation = mirror_deviation;
         best = std::move(mirror);
         replaced = true;

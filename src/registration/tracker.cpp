@@ -44,6 +44,7 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
         mirror.enabled && mirror.turn_reflection &&
         mirror.tracking_turn_max_difference_deg > mirror.min_difference_deg;
     continuing.mirror_check.mirror_reflection = false;
+    continuing.mirror_check.tilt_reflection = false;
     // Where the branches meet, the two lie within a few degrees and are nearly equally neutral
     // by construction: the check keeps the tracker on the nearer-neutral one without a margin.
     continuing.mirror_check.min_neutral_gain = 0.0;

@@ -677,6 +677,10 @@ int main(int argc, char** argv) {
       po::value(&settings.mirror_check.turn_reflection)
           ->default_value(settings.mirror_check.turn_reflection),
       "the mirror check also tries the tray's turn about its long axis reflected (true/false)")(
+      "mirror-tilt",
+      po::value(&settings.mirror_check.tilt_reflection)
+          ->default_value(settings.mirror_check.tilt_reflection),
+      "... and its tilt alone reflected, its turn kept (true/false)")(
       "mirror-cost-tolerance",
       po::value(&settings.mirror_check.cost_tolerance)
           ->default_value(settings.mirror_check.cost_tolerance),

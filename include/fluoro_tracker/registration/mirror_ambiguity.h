@@ -25,6 +25,13 @@ geometry::Pose mirroredAcrossBeam(const geometry::Pose& camera_from_mesh);
 // axis lies along the beam.
 geometry::Pose turnReflectedAcrossBeam(const geometry::Pose& camera_from_mesh);
 
+// The pose of a bone with its tilt across the beam reversed and its turn about its long axis
+// kept: the mirror (mirroredAcrossBeam) of its turn reflection. A tray seen nearly edge-on but
+// turned some degrees about its stem has this pose's silhouette nearly as its own when only the
+// plateau's tilt lies on the wrong side of edge-on; its full mirror is then off by twice the
+// turn as well.
+geometry::Pose tiltReflectedAcrossBeam(const geometry::Pose& camera_from_mesh);
+
 // How far a joint is from neutral in the coordinates the mirror changes in a lateral view:
 // |adduction| and |internal rotation|, each in units of its ligament bound on that side (the
 // envelope's half-width when a bound is open). Of two poses that fit the image equally well,

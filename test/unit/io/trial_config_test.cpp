@@ -204,7 +204,7 @@ registration:
   edge_offset_tracking: {enabled: false, frame_sd_px: 0.3, drift_px: 0.05}
   edges: {clahe: true, canny_high: 60}
   mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, solver_iterations: 5,
-                 turn_reflection: false, mirror_reflection: false, max_difference_deg: 30,
+                 turn_reflection: false, mirror_reflection: false, tilt_reflection: false, max_difference_deg: 30,
                  tracking_turn_max_difference_deg: 4, min_neutral_gain: 0.25}
   depth_retry: {enabled: false, shifts_mm: [-10, 10, -25]}
 )");
@@ -215,6 +215,7 @@ registration:
   EXPECT_EQ(c.registration.mirror_check.solver_iterations, 5);
   EXPECT_FALSE(c.registration.mirror_check.turn_reflection);
   EXPECT_FALSE(c.registration.mirror_check.mirror_reflection);
+  EXPECT_FALSE(c.registration.mirror_check.tilt_reflection);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.max_difference_deg, 30.0);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.tracking_turn_max_difference_deg, 4.0);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_neutral_gain, 0.25);

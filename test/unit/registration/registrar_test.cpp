@@ -327,6 +327,47 @@ TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
   EXPECT_NEAR(deviation(kept.poses), deviation(unchecked.poses), 1e-9);
 }
 
+// A view turned 7 deg about the leg: the tray is seen nearly edge-on but turned about its stem.
+// Started with only its tilt on the wrong side of edge-on, the full mirror and the turn
+// reflection of that start are each off by twice the turn; only the tilt reflection (its turn
+// kept) leads back to the truth.
+TEST(Registrar, MirrorCheckReversesTheTiltAloneOfATurnedTray) {
+  sim::TrialSimulatorSettings s;
+  s.motion.frames = 12;
+  s.view_yaw_deg = 7.0;
+  s.view_roll_deg = -3.0;
+  const sim::TrialSimulator simulator(s);
+  std::mt19937_64 rng(3);
+  const sim::SimulatedFrame frame = simulator.render(5, &rng);
+  const std::vector<registration::BoneModel> bones = {
+      {"femur", std::make_shared<imaging::SilhouetteModel>(simulator.implants().femoral_component),
+       1.0},
+      {"tibia", std::make_shared<imaging::SilhouetteModel>(simulator.implants().tibial_tray), 1.0}};
+  const std::vector<Pose> truth = {frame.femur, frame.tibia};
+  const geometry::XrayCamera& camera = simulator.views()[0].camera;
+  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  const std::vector<Pose> start = {
+      truth[0], camera.worldFromCamera() *
+                    registration::tiltReflectedAcrossBeam(camera_from_fixed * truth[1])};
+  const std::vector<registration::ViewImage> views = {{frame.images[0], camera}};
+  registration::RegistrationSettings settings;
+  settings.depth_retry.enabled = false;  // the mirror check alone
+  settings.mirror_check.tilt_reflection = false;
+  const registration::JointModel knee = kneeJoint();
+  const auto without = registration::Registrar(bones, settings, {knee}).solve(views, start);
+  ASSERT_FALSE(registration::meetsSuccessCriterion(
+      registration::poseError(without.poses[1], truth[1], camera_from_fixed)))
+      << "the full mirror or the turn reflection alone recovers this tray: the test shows nothing";
+  settings.mirror_check.tilt_reflection = true;
+  const auto with = registration::Registrar(bones, settings, {knee}).solve(views, start);
+  for (int b = 0; b < 2; ++b) {
+    const registration::PoseError e =
+        registration::poseError(with.poses[b], truth[b], camera_from_fixed);
+    EXPECT_TRUE(registration::meetsSuccessCriterion(e))
+        << bones[b].name << ": rotation " << e.rotation_deg.transpose() << " deg";
+  }
+}
+
 // Both bones start 20-26 mm too near the source and 3.4 deg off, from where the solve settles
 // on the wrong size with the wrong tilts. The quality status says so, and the retry from the
 // result moved along the beam finds the truth.
@@ -399,6 +440,18 @@ TEST(MirrorAmbiguity, MirrorKeepsTheSilhouetteOfASymmetricMeshAndNeutralIsMeasur
   EXPECT_LT(geometry::rotationAngleBetween(registration::turnReflectedAcrossBeam(turned).linear(),
                                            camera_from_mesh.linear()),
             1e-9);
+
+  // The tilt reflection is the mirror with the turn kept: reflecting its turn gives the full
+  // mirror, and it undoes itself.
+  const Pose tilted = registration::tiltReflectedAcrossBeam(camera_from_mesh);
+  EXPECT_LT(geometry::rotationAngleBetween(registration::turnReflectedAcrossBeam(tilted).linear(),
+                                           mirrored.linear()),
+            1e-9);
+  EXPECT_LT(geometry::rotationAngleBetween(registration::tiltReflectedAcrossBeam(tilted).linear(),
+                                           camera_from_mesh.linear()),
+            1e-9);
+  EXPECT_GT(geometry::rotationAngleBetween(tilted.linear(), mirrored.linear()), 0.05);
+  EXPECT_GT(geometry::rotationAngleBetween(tilted.linear(), camera_from_mesh.linear()), 0.05);
 
   constraints::LigamentSettings ligaments;  // adduction +-3 deg, internal rotation +-20 deg
   kinematics::KneeCoordinates k;
