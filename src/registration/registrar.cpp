@@ -2,9 +2,9 @@
 #include "fluoro_tracker/registration/registrar.h"
 
 #include <algorithm>
-#include <limits>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include <ceres/ceres.h>
