@@ -8,6 +8,21 @@
 using namespace fluoro_tracker;
 using test_support::TempDir;
 
+namespace {
+
+// Loads a one-bone trial whose `registration:` section is `registration` (flow YAML) and
+// expects the load to fail with a message containing `fragment`.
+void expectRegistrationRejected(const std::string& registration, const std::string& fragment) {
+  SCOPED_TRACE("registration: " + registration);
+  TempDir dir;
+  test_support::writeText(
+      dir.file("trial.yaml"),
+      "bones:\n  - {name: femur, mesh: f.stl}\nregistration: " + registration + "\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("trial.yaml")), fragment);
+}
+
+}  // namespace
+
 TEST(TrialConfig, ReadsTheContractExample) {
   TempDir dir;
   test_support::writeText(dir.file("trial.yaml"), R"(
@@ -255,36 +270,14 @@ registration:
   EXPECT_DOUBLE_EQ(staged.registration.stages[0].imageWeight("patella"), 1.0);
   EXPECT_EQ(staged.registration.stages[1].solver_iterations, 5);
   EXPECT_TRUE(staged.registration.stages[1].contact);
-  test_support::writeText(
-      dir.file("stage_typo.yaml"),
-      "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {stages: [{outer: 2}]}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("stage_typo.yaml")), "unknown key 'outer'");
-  test_support::writeText(
-      dir.file("typo.yaml"),
-      "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {outer_iteration: 3}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("typo.yaml")), "unknown key 'outer_iteration'");
-  test_support::writeText(
-      dir.file("bad.yaml"),
-      "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {scales: [2.0]}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad.yaml")), "scales must be in (0, 1]");
-  test_support::writeText(
-      dir.file("bad_tracking.yaml"),
-      "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {tracking_scales: []}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_tracking.yaml")),
-                    "tracking_scales must not be empty");
-  test_support::writeText(dir.file("bad_mirror.yaml"),
-                          "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {mirror_check: "
-                          "{cost_tolerance: -0.1}}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_mirror.yaml")), "mirror_check needs");
-  test_support::writeText(dir.file("bad_gain.yaml"),
-                          "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {mirror_check: "
-                          "{min_neutral_gain: -0.1}}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_gain.yaml")), "min_neutral_gain >= 0");
-  test_support::writeText(dir.file("bad_retry.yaml"),
-                          "bones:\n  - {name: femur, mesh: f.stl}\nregistration: {depth_retry: "
-                          "{shifts_mm: [-15, 0]}}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_retry.yaml")),
-                    "depth_retry: shifts_mm must be finite and non-zero");
+  expectRegistrationRejected("{stages: [{outer: 2}]}", "unknown key 'outer'");
+  expectRegistrationRejected("{outer_iteration: 3}", "unknown key 'outer_iteration'");
+  expectRegistrationRejected("{scales: [2.0]}", "scales must be in (0, 1]");
+  expectRegistrationRejected("{tracking_scales: []}", "tracking_scales must not be empty");
+  expectRegistrationRejected("{mirror_check: {cost_tolerance: -0.1}}", "mirror_check needs");
+  expectRegistrationRejected("{mirror_check: {min_neutral_gain: -0.1}}", "min_neutral_gain >= 0");
+  expectRegistrationRejected("{depth_retry: {shifts_mm: [-15, 0]}}",
+                             "depth_retry: shifts_mm must be finite and non-zero");
 }
 
 TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
@@ -368,16 +361,8 @@ registration:
   EXPECT_DOUBLE_EQ(c.search.wide_screening_px, 3.0);
   EXPECT_DOUBLE_EQ(c.search.edge_high_fraction, 0.2);
   EXPECT_DOUBLE_EQ(c.search.retry_edge_high_fraction, 0.0);
-  test_support::writeText(dir.file("bad.yaml"),
-                          "bones:\n  - {name: femur, mesh: f.stl}\n"
-                          "registration: {search: {wide_screening_px: 0.5}}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad.yaml")), "wide_screening_px >= 1");
-  test_support::writeText(dir.file("bad_edges.yaml"),
-                          "bones:\n  - {name: femur, mesh: f.stl}\n"
-                          "registration: {search: {edge_high_fraction: 0}}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_edges.yaml")), "edge_high_fraction");
-  test_support::writeText(dir.file("bad_retry.yaml"),
-                          "bones:\n  - {name: femur, mesh: f.stl}\n"
-                          "registration: {search: {retry_edge_high_fraction: 1.5}}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("bad_retry.yaml")), "retry_edge_high_fraction");
+  expectRegistrationRejected("{search: {wide_screening_px: 0.5}}", "wide_screening_px >= 1");
+  expectRegistrationRejected("{search: {edge_high_fraction: 0}}", "edge_high_fraction");
+  expectRegistrationRejected("{search: {retry_edge_high_fraction: 1.5}}",
+                             "retry_edge_high_fraction");
 }
