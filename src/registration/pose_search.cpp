@@ -365,10 +365,13 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
     found.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return found;
   };
+  // Candidate regions do not depend on the edge settings: found once for both passes.
+  const std::vector<imaging::ImplantBlob> blobs =
+      imaging::findImplantBlobs(views.front().image, settings_.blobs);
   std::optional<PoseSearchResult> first;
   std::optional<InputError> first_error;
   try {
-    first = searchPass(passes_.front(), views, seeds);
+    first = searchPass(passes_.front(), views, seeds, blobs);
   } catch (const InputError& e) {
     first_error = e;  // nothing found with the first pass's edges
   }
@@ -382,7 +385,7 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
   }
   PoseSearchResult retry;
   try {
-    retry = searchPass(passes_[1], views, seeds);
+    retry = searchPass(passes_[1], views, seeds, blobs);
   } catch (const InputError&) {
     if (first_error) throw *first_error;
     return finish(std::move(*first), 2);
@@ -400,11 +403,10 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
 }
 
 PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<ViewImage>& views,
-                                        const std::vector<geometry::Pose>& seeds) const {
+                                        const std::vector<geometry::Pose>& seeds,
+                                        const std::vector<imaging::ImplantBlob>& blobs) const {
   const std::size_t bones = registrar_->bones().size();
   const ViewImage& first = views.front();
-  const std::vector<imaging::ImplantBlob> blobs =
-      imaging::findImplantBlobs(first.image, settings_.blobs);
   PoseSearchResult found;
   found.regions = static_cast<int>(blobs.size());
   const imaging::EdgeMap coarse(first.image, first.camera, pass.edges, cv::Rect(),

@@ -135,8 +135,10 @@ class PoseSearch {
   };
   std::vector<JointLibrary> joint_libraries_;
 
+  // One pass of the search with `pass`'s edges, over the first view's candidate regions.
   PoseSearchResult searchPass(const EdgePass& pass, const std::vector<ViewImage>& views,
-                              const std::vector<geometry::Pose>& seeds) const;
+                              const std::vector<geometry::Pose>& seeds,
+                              const std::vector<imaging::ImplantBlob>& blobs) const;
 };
 
 }  // namespace registration
