@@ -52,6 +52,12 @@ std::string combinedStatus(const std::string& parent, const std::string& child) 
   return parent == "ok" && child == "ok" ? "ok" : "suspect";
 }
 
+int statusTrouble(const std::vector<std::string>& status) {
+  int trouble = 0;
+  for (const std::string& s : status) trouble += s == "ok" ? 0 : s == "lost" ? 2 : 1;
+  return trouble;
+}
+
 std::vector<std::string> classifyBones(const RegistrationResult& result,
                                        const QualitySettings& settings) {
   const std::size_t bones = result.poses.size();

@@ -375,8 +375,7 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
   } catch (const InputError& e) {
     first_error = e;  // nothing found with the first pass's edges
   }
-  if (first && std::all_of(first->status.begin(), first->status.end(),
-                           [](const std::string& s) { return s == "ok"; })) {
+  if (first && statusTrouble(first->status) == 0) {
     return finish(std::move(*first), 1);
   }
   if (passes_.size() < 2) {
@@ -392,13 +391,10 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
   }
   if (first_error) return finish(std::move(retry), 2);
   // Fewer bones suspect or lost first; between equal statuses, the better explanation.
-  const auto trouble = [](const PoseSearchResult& r) {
-    int sum = 0;
-    for (const std::string& s : r.status) sum += s == "ok" ? 0 : s == "suspect" ? 1 : 2;
-    return sum;
-  };
-  const bool retry_better = trouble(retry) < trouble(*first) ||
-                            (trouble(retry) == trouble(*first) && retry.score > first->score);
+  const int retry_trouble = statusTrouble(retry.status);
+  const int first_trouble = statusTrouble(first->status);
+  const bool retry_better = retry_trouble < first_trouble ||
+                            (retry_trouble == first_trouble && retry.score > first->score);
   return finish(retry_better ? std::move(retry) : std::move(*first), 2);
 }
 

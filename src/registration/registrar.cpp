@@ -464,16 +464,12 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
   if (!settings_.depth_retry.enabled) return result;
   // Fewer bones not ok first (lost counts twice), then more contour inliers.
   const auto rank = [&](const RegistrationResult& r) {
-    double score = 0.0;
-    for (const std::string& status : classifyBones(r, settings_.quality)) {
-      score += status == "ok" ? 0.0 : status == "suspect" ? 1.0 : 2.0;
-    }
     double inliers = 0.0;
     for (const BoneQuality& q : r.quality) inliers += q.contour_inlier_fraction;
-    return std::make_pair(score, -inliers);
+    return std::make_pair(statusTrouble(classifyBones(r, settings_.quality)), -inliers);
   };
   auto best_rank = rank(result);
-  if (best_rank.first == 0.0) return result;
+  if (best_rank.first == 0) return result;
   const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();
   SolveCounts counts(result);
   // From the result, whose in-plane position and rotations are mostly right, rather than from
@@ -495,7 +491,7 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
       best_rank = retry_rank;
       result = std::move(retry);
     }
-    if (best_rank.first == 0.0) break;
+    if (best_rank.first == 0) break;
   }
   counts.writeTo(&result);
   return result;

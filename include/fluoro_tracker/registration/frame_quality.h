@@ -63,6 +63,10 @@ double envelopeViolation(const constraints::LigamentSettings& ligaments,
 // A joint's status from its two bones': lost if either is, ok if both are, else suspect.
 std::string combinedStatus(const std::string& parent, const std::string& child);
 
+// How much of a result is in doubt, for choosing between results of one frame: its bones not
+// ok, a lost one counting twice (0 when every bone is ok).
+int statusTrouble(const std::vector<std::string>& status);
+
 // Per bone "ok", "suspect" or "lost" from a registration's quality figures (see QualitySettings).
 std::vector<std::string> classifyBones(const RegistrationResult& result,
                                        const QualitySettings& settings);

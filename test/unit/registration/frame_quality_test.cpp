@@ -80,3 +80,10 @@ TEST(FrameQuality, EnvelopeViolationIsTheLargestDistanceOutsideTheBounds) {
   EXPECT_NEAR(registration::envelopeViolation(ligaments, k), 4.0, 1e-9);
   EXPECT_THROW(registration::QualitySettings{-1.0}.validate(), InputError);
 }
+
+TEST(FrameQuality, TroubleCountsBonesNotOkWithALostOneTwice) {
+  EXPECT_EQ(registration::statusTrouble({"ok", "ok"}), 0);
+  EXPECT_EQ(registration::statusTrouble({"ok", "suspect"}), 1);
+  EXPECT_EQ(registration::statusTrouble({"lost", "suspect"}), 3);
+  EXPECT_EQ(registration::statusTrouble({}), 0);
+}
