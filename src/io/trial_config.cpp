@@ -230,7 +230,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   quality.allowOnly({"inlier_distance_px", "lost_inlier_fraction", "suspect_inlier_fraction",
                      "suspect_contour_rms_px", "suspect_penetration_mm",
                      "suspect_envelope_violation", "suspect_out_of_plane_sd_mm",
-                     "suspect_rotation_sd_deg"});
+                     "suspect_rotation_sd_deg", "relative_inlier_drop", "relative_inlier_spread",
+                     "relative_inlier_window", "relative_inlier_min_frames"});
   quality.read("inlier_distance_px", &r.quality.inlier_distance_px);
   quality.read("lost_inlier_fraction", &r.quality.lost_inlier_fraction);
   quality.read("suspect_inlier_fraction", &r.quality.suspect_inlier_fraction);
@@ -239,6 +240,10 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   quality.read("suspect_envelope_violation", &r.quality.suspect_envelope_violation);
   quality.read("suspect_out_of_plane_sd_mm", &r.quality.suspect_out_of_plane_sd_mm);
   quality.read("suspect_rotation_sd_deg", &r.quality.suspect_rotation_sd_deg);
+  quality.read("relative_inlier_drop", &r.quality.relative_inlier_drop);
+  quality.read("relative_inlier_spread", &r.quality.relative_inlier_spread);
+  quality.read("relative_inlier_window", &r.quality.relative_inlier_window);
+  quality.read("relative_inlier_min_frames", &r.quality.relative_inlier_min_frames);
   section.read("scales", &r.scales);
   section.read("outer_iterations", &r.outer_iterations);
   section.read("coarse_outer_iterations", &r.coarse_outer_iterations);

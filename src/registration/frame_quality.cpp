@@ -31,6 +31,14 @@ void QualitySettings::validate() const {
   non_negative(suspect_envelope_violation, "suspect_envelope_violation");
   non_negative(suspect_out_of_plane_sd_mm, "suspect_out_of_plane_sd_mm");
   non_negative(suspect_rotation_sd_deg, "suspect_rotation_sd_deg");
+  fraction(relative_inlier_drop, "relative_inlier_drop");
+  non_negative(relative_inlier_spread, "relative_inlier_spread");
+  if (relative_inlier_window < 1 || relative_inlier_min_frames < 1 ||
+      relative_inlier_min_frames > relative_inlier_window) {
+    throw InputError(
+        "registration quality: relative_inlier_window must be >= 1 and "
+        "relative_inlier_min_frames in [1, relative_inlier_window]");
+  }
 }
 
 double envelopeViolation(const constraints::LigamentSettings& ligaments,

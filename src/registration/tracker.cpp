@@ -15,7 +15,8 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
       poses_(std::move(initial)),
       edge_offsets_(
           registrar_ ? registrar_->settings().edge_offset_tracking : EdgeOffsetTrackingSettings(),
-          registrar_ ? registrar_->settings().edge_offset_prior_px : 0.0) {
+          registrar_ ? registrar_->settings().edge_offset_prior_px : 0.0),
+      inlier_history_(registrar_ ? registrar_->settings().quality : QualitySettings()) {
   if (!registrar_) throw InputError("tracker: no registrar");
   if (poses_.empty() && !search_) {
     throw InputError("tracker: no initial poses and no automatic search to find them");
@@ -107,6 +108,7 @@ TrackedFrame Tracker::searchAndReset(const std::vector<ViewImage>& views) {
 }
 
 void Tracker::accept(TrackedFrame* frame) {
+  inlier_history_.classify(frame->result.quality, &frame->status);
   const bool first = poses_.empty();
   bool all_ok = true;
   for (std::size_t b = 0; b < frame->poses.size(); ++b) {

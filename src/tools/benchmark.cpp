@@ -33,6 +33,7 @@
 #include "fluoro_tracker/io/jointtrack_calibration.h"
 #include "fluoro_tracker/io/jts_file.h"
 #include "fluoro_tracker/kinematics/knee_coordinates.h"
+#include "fluoro_tracker/registration/inlier_history.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/registration/pose_search.h"
 #include "fluoro_tracker/registration/registrar.h"
@@ -376,6 +377,10 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
         searches.push_back(std::make_unique<registration::PoseSearch>(registrar));
       }
     }
+    // Each condition's frames of this trial in order, as the tracker would see them: the
+    // status also compares each bone with its recent frames.
+    std::vector<registration::InlierHistory> inlier_histories(
+        conditions.size(), registration::InlierHistory(settings.quality));
     // Measures penetration at every result, with or without contact in the registration.
     const constraints::ArticularContact penetration_probe(implants.femoral_component,
                                                           implants.tibial_insert, contact_settings);
@@ -442,8 +447,8 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
         }
         tally.addSimilarity(imaging::projectionSimilarity(map, meshes, result.poses).total(),
                             similarity_truth, success);
-        const std::vector<std::string> status =
-            registration::classifyBones(result, settings.quality);
+        std::vector<std::string> status = registration::classifyBones(result, settings.quality);
+        inlier_histories[c].classify(result.quality, &status);
         tally.addStatus(status, success);
         if (!success && !outputs.failure_overlay_dir.empty()) {
           char name[64];
@@ -744,6 +749,15 @@ int main(int argc, char** argv) {
       "suspect-rotation-sd-deg",
       po::value(&settings.quality.suspect_rotation_sd_deg)->default_value(0.0),
       "status: suspect above this rotational standard deviation (needs --covariance)")(
+      "relative-inlier-drop",
+      po::value(&settings.quality.relative_inlier_drop)
+          ->default_value(settings.quality.relative_inlier_drop),
+      "status: suspect this far below the median inlier fraction of the bone's earlier frames "
+      "in the trial (0: off)")(
+      "relative-inlier-spread",
+      po::value(&settings.quality.relative_inlier_spread)
+          ->default_value(settings.quality.relative_inlier_spread),
+      "... or this many robust standard deviations of those frames' fractions, if more")(
       "quality-csv", po::value(&quality_csv_path),
       "write every registration's quality figures, status and errors (x, y in-plane and z along "
       "the beam in mm; rotations about the bone's axes in deg) per bone to this CSV")(

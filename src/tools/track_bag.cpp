@@ -22,6 +22,7 @@
 #include "fluoro_tracker/io/poses_csv.h"
 #include "fluoro_tracker/io/trial_config.h"
 #include "fluoro_tracker/io/trial_models.h"
+#include "fluoro_tracker/registration/inlier_history.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/registration/pose_search.h"
 #include "fluoro_tracker/registration/registrar.h"
@@ -122,6 +123,9 @@ int main(int argc, char** argv) {
     const bool interactive = isatty(STDOUT_FILENO);
     const auto start = std::chrono::steady_clock::now();
     const std::size_t expected = reader.expectedFrames();
+    // Frames registered from --init-csv are classified against their predecessors, as the
+    // tracker classifies its own.
+    registration::InlierHistory inlier_history(registrar.settings().quality);
 
     reader.read(
         [&](const ros_bridge::BagFrame& frame) {
@@ -155,6 +159,7 @@ int main(int argc, char** argv) {
             } else {
               result = registrar.solve(views, guess);
               status = registration::classifyBones(result, registrar.settings().quality);
+              inlier_history.classify(result.quality, &status);
             }
           } catch (const InputError& e) {
             // Keep going: the frame is reported lost at its starting poses.

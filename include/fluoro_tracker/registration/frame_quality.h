@@ -41,7 +41,8 @@ struct JointQuality {
 // suspect_penetration_mm or leaves its ligament envelope by more than
 // suspect_envelope_violation (deg or mm), or when its out-of-plane standard deviation exceeds
 // suspect_out_of_plane_sd_mm or its largest rotational one exceeds suspect_rotation_sd_deg (0
-// turns a test off; both need compute_covariance).
+// turns a test off; both need compute_covariance). Frames registered in sequence (the Tracker,
+// the benchmark's trials) also compare each bone with its own recent frames (InlierHistory).
 struct QualitySettings {
   double inlier_distance_px = 1.5;
   double lost_inlier_fraction = 0.3;
@@ -51,6 +52,15 @@ struct QualitySettings {
   double suspect_envelope_violation = 5.0;
   double suspect_out_of_plane_sd_mm = 0.0;
   double suspect_rotation_sd_deg = 0.0;  // likewise for max_rotation_sd_rad (0: off)
+  // Suspect, too, when the inlier fraction lies more than this below the median of the bone's
+  // last relative_inlier_window frames (once it has relative_inlier_min_frames of them; 0
+  // turns the test off), or, where those frames scatter more, more than relative_inlier_spread
+  // robust standard deviations (1.4826 x their median absolute deviation) below it. Measured:
+  // see README, "Tracking quality".
+  double relative_inlier_drop = 0.1;
+  double relative_inlier_spread = 3.0;
+  int relative_inlier_window = 20;
+  int relative_inlier_min_frames = 3;
 
   void validate() const;  // throws InputError naming the field
 };

@@ -7,6 +7,7 @@
 
 #include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/registration/edge_offset_filter.h"
+#include "fluoro_tracker/registration/inlier_history.h"
 #include "fluoro_tracker/registration/pose_search.h"
 #include "fluoro_tracker/registration/registrar.h"
 
@@ -24,13 +25,13 @@ struct TrackedFrame {
 
 // State across frames (architecture: registration::Tracker): each frame is registered from a
 // constant-velocity prediction of the last two good frames, and its quality classified
-// (classifyBones). A lost bone keeps its last good pose (the tracker never reports a jump its
-// own quality rejects) and the prediction restarts from it. With a PoseSearch, the tracker
-// also starts without poses (the first frame is searched) and recovers: a frame whose
-// registration loses a bone is searched at once, seeded by the last good poses (so a crude
-// first-frame guess costs no frame); if that finds nothing, each following frame is searched
-// until no bone is lost. Frames started from an earlier frame's registration skip the
-// registrar's mirror check (the motion so far tells the side); frames started from poses the
+// (classifyBones, then InlierHistory against the bone's recent frames). A lost bone keeps its last
+// good pose (the tracker never reports a jump its own quality rejects) and the prediction restarts
+// from it. With a PoseSearch, the tracker also starts without poses (the first frame is searched)
+// and recovers: a frame whose registration loses a bone is searched at once, seeded by the last
+// good poses (so a crude first-frame guess costs no frame); if that finds nothing, each following
+// frame is searched until no bone is lost. Frames started from an earlier frame's registration skip
+// the registrar's mirror check (the motion so far tells the side); frames started from poses the
 // user gave (the first frame, reinitialize) have it as configured.
 // ROS-free: used by track_bag and the tracking node.
 class Tracker {
@@ -82,6 +83,7 @@ class Tracker {
   std::vector<geometry::Pose> previous_;  // the good poses one frame earlier (empty: none)
   bool poses_registered_ = false;         // poses_ come from a registration, not the user
   EdgeOffsetFilter edge_offsets_;         // each bone's edge offset, carried between frames
+  InlierHistory inlier_history_;          // each bone's recent inlier fractions (its status)
 };
 
 }  // namespace registration

@@ -222,6 +222,8 @@ registration:
                  turn_reflection: false, mirror_reflection: false, tilt_reflection: false, max_difference_deg: 30,
                  tracking_turn_max_difference_deg: 4, min_neutral_gain: 0.25}
   depth_retry: {enabled: false, shifts_mm: [-10, 10, -25]}
+  quality: {relative_inlier_drop: 0.2, relative_inlier_spread: 2.5, relative_inlier_window: 10,
+            relative_inlier_min_frames: 5}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_FALSE(c.registration.mirror_check.enabled);
@@ -238,6 +240,12 @@ registration:
                    registration::MirrorCheckSettings().min_difference_deg);
   EXPECT_FALSE(c.registration.depth_retry.enabled);
   EXPECT_EQ(c.registration.depth_retry.shifts_mm, (std::vector<double>{-10.0, 10.0, -25.0}));
+  EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_drop, 0.2);
+  EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_spread, 2.5);
+  EXPECT_EQ(c.registration.quality.relative_inlier_window, 10);
+  EXPECT_EQ(c.registration.quality.relative_inlier_min_frames, 5);
+  EXPECT_DOUBLE_EQ(c.registration.quality.suspect_inlier_fraction,
+                   registration::QualitySettings().suspect_inlier_fraction);
   EXPECT_EQ(c.registration.scales, (std::vector<double>{0.25, 1.0}));
   EXPECT_EQ(c.registration.outer_iterations, 6);
   EXPECT_EQ(c.registration.coarse_outer_iterations, 3);
@@ -278,6 +286,13 @@ registration:
   expectRegistrationRejected("{mirror_check: {min_neutral_gain: -0.1}}", "min_neutral_gain >= 0");
   expectRegistrationRejected("{depth_retry: {shifts_mm: [-15, 0]}}",
                              "depth_retry: shifts_mm must be finite and non-zero");
+  expectRegistrationRejected("{quality: {relative_inlier_drop: -0.1}}",
+                             "relative_inlier_drop must be in [0, 1]");
+  expectRegistrationRejected("{quality: {relative_inlier_spread: -1}}",
+                             "relative_inlier_spread must be >= 0");
+  expectRegistrationRejected(
+      "{quality: {relative_inlier_window: 4, relative_inlier_min_frames: 5}}",
+      "relative_inlier_min_frames in [1, relative_inlier_window]");
 }
 
 TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
@@ -317,6 +332,11 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
                    d.mirror_check.tracking_turn_max_difference_deg);
   EXPECT_EQ(c.registration.depth_retry.enabled, d.depth_retry.enabled);
   EXPECT_EQ(c.registration.depth_retry.shifts_mm, d.depth_retry.shifts_mm);
+  EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_drop, d.quality.relative_inlier_drop);
+  EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_spread, d.quality.relative_inlier_spread);
+  EXPECT_EQ(c.registration.quality.relative_inlier_window, d.quality.relative_inlier_window);
+  EXPECT_EQ(c.registration.quality.relative_inlier_min_frames,
+            d.quality.relative_inlier_min_frames);
   ASSERT_EQ(c.joints.size(), 1u);
   const constraints::ContactSettings contact;
   EXPECT_TRUE(c.joints[0].contact.enabled);

@@ -1,10 +1,15 @@
 #include "fluoro_tracker/registration/tracker.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
 
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include "../test_support.h"
+#include "fluoro_tracker/registration/frame_quality.h"
 #include "fluoro_tracker/registration/mirror_ambiguity.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
@@ -59,6 +64,58 @@ TEST(Tracker, FollowsATrialFromItsFirstPose) {
     EXPECT_GT(tracked.solve_seconds, 0.0);
     EXPECT_TRUE(tracked.poses[0].isApprox(tracker.poses()[0]));
   }
+}
+
+// A bone that loses a fifth of its edges (here: the femur's far side covered by a uniform
+// patch, as by a lead marker or the collimator) still has more inliers than the absolute
+// threshold asks, but far fewer than in its own earlier frames: the tracker calls it suspect
+// (InlierHistory), while the untouched tibia stays ok.
+TEST(Tracker, CallsABoneSuspectWhoseInliersDropBelowItsOwnEarlierFrames) {
+  const Trial trial;
+  const auto first = trial.simulator.truth(0);
+  registration::Tracker tracker(trial.registrar, {first.femur, first.tibia});
+  std::mt19937_64 rng(6);
+  for (int f = 1; f < 5; ++f) {
+    const auto frame = trial.simulator.render(f, &rng);
+    ASSERT_EQ(tracker.track(trial.views(frame)).status, (std::vector<std::string>{"ok", "ok"}));
+  }
+  auto covered = trial.simulator.render(5, &rng);
+  const auto& camera = trial.simulator.views()[0].camera;
+  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  const auto femur =
+      trial.registrar->bones()[0].silhouette->contour(camera, camera_from_fixed * covered.femur);
+  const auto tibia =
+      trial.registrar->bones()[1].silhouette->contour(camera, camera_from_fixed * covered.tibia);
+  ASSERT_FALSE(femur.empty());
+  ASSERT_FALSE(tibia.empty());
+  Eigen::Vector2d femur_centre = Eigen::Vector2d::Zero();
+  Eigen::Vector2d tibia_centre = Eigen::Vector2d::Zero();
+  for (const auto& c : femur) femur_centre += c.pixel / static_cast<double>(femur.size());
+  for (const auto& c : tibia) tibia_centre += c.pixel / static_cast<double>(tibia.size());
+  // The fifth of the femur's contour farthest from the tibia.
+  const Eigen::Vector2d away = (femur_centre - tibia_centre).normalized();
+  std::vector<double> reach;
+  for (const auto& c : femur) reach.push_back((c.pixel - femur_centre).dot(away));
+  std::vector<double> sorted = reach;
+  std::sort(sorted.begin(), sorted.end());
+  const double cut = sorted[sorted.size() * 4 / 5];
+  std::vector<cv::Point> far;
+  for (std::size_t k = 0; k < femur.size(); ++k) {
+    if (reach[k] >= cut) far.emplace_back(cvRound(femur[k].pixel.x()), cvRound(femur[k].pixel.y()));
+  }
+  cv::Mat& image = covered.images[0];
+  const cv::Rect patch = (cv::boundingRect(far) + cv::Size(16, 16)) - cv::Point(8, 8);
+  const cv::Rect inside = patch & cv::Rect(0, 0, image.cols, image.rows);
+  image(inside).setTo(cv::mean(image(inside)));
+
+  const registration::TrackedFrame tracked = tracker.track(trial.views(covered));
+  const std::vector<std::string> absolute =
+      registration::classifyBones(tracked.result, trial.registrar->settings().quality);
+  // Otherwise the frame shows nothing: the absolute thresholds alone must pass the femur.
+  ASSERT_EQ(absolute[0], "ok") << "diverged " << tracked.result.diverged[0] << ", inlier fraction "
+                               << tracked.result.quality[0].contour_inlier_fraction;
+  EXPECT_EQ(tracked.status, (std::vector<std::string>{"suspect", "ok"}))
+      << "femur inlier fraction " << tracked.result.quality[0].contour_inlier_fraction;
 }
 
 TEST(Tracker, BadInputLeavesTheStateAlone) {

@@ -1,0 +1,49 @@
+#pragma once
+
+#include <cstddef>
+#include <deque>
+#include <string>
+#include <vector>
+
+#include "fluoro_tracker/registration/frame_quality.h"
+
+namespace fluoro_tracker {
+namespace registration {
+
+// A bone's contour inlier fraction at its true pose depends on the trial: near 1 on a clean
+// image, 0.8-0.95 under an occluding rod, noise or a low resolution, lower still where the other
+// bone covers it in deep flexion. The absolute thresholds of QualitySettings must pass the
+// poorest of those, so a wrong pose on a clean image (a femur found on the wrong rim, about 0.6-0.8
+// of its contour on edges) is called ok. InlierHistory compares each bone with itself: it keeps
+// the inlier fractions of the bone's recent frames and marks a bone suspect whose fraction lies
+// more than QualitySettings::relative_inlier_drop below their median (or, when they scatter
+// more, relative_inlier_spread robust standard deviations below it: under a moving rod a
+// bone's good frames differ by more than the drop). Every frame that is not
+// lost joins the history, so a lasting change (an occluder that stays) becomes the new normal
+// within half a window, while a single frame hardly moves the median.
+// Used by the Tracker (frames in order) and by the benchmark (each trial's frames in order).
+class InlierHistory {
+ public:
+  explicit InlierHistory(const QualitySettings& settings);
+
+  // Turns "ok" bones whose inlier fraction dropped below their history "suspect" (with
+  // min_frames of history; relative_inlier_drop 0 turns the test off), then records the
+  // fractions of the bones not lost. `quality` and `status` are per bone.
+  void classify(const std::vector<BoneQuality>& quality, std::vector<std::string>* status);
+
+  // The median of a bone's recorded fractions (NaN without any).
+  double median(std::size_t bone) const;
+
+  // How far below the median a bone's fraction may lie before it is suspect.
+  double allowedDrop(std::size_t bone) const;
+
+ private:
+  double drop_;
+  double spread_;
+  std::size_t window_;
+  std::size_t min_frames_;
+  std::vector<std::deque<double>> recent_;  // per bone, oldest first
+};
+
+}  // namespace registration
+}  // namespace fluoro_tracker

@@ -1,0 +1,105 @@
+#include "fluoro_tracker/registration/inlier_history.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "fluoro_tracker/input_error.h"
+
+using namespace fluoro_tracker;
+using registration::BoneQuality;
+using registration::InlierHistory;
+using registration::QualitySettings;
+
+namespace {
+
+std::vector<BoneQuality> fractions(std::vector<double> values) {
+  std::vector<BoneQuality> quality(values.size());
+  for (std::size_t b = 0; b < values.size(); ++b) quality[b].contour_inlier_fraction = values[b];
+  return quality;
+}
+
+// The status one frame gets: `status` from the absolute thresholds, then the history's test.
+std::vector<std::string> classify(InlierHistory* history, std::vector<double> values,
+                                  std::vector<std::string> status) {
+  history->classify(fractions(std::move(values)), &status);
+  return status;
+}
+
+}  // namespace
+
+TEST(InlierHistory, FlagsABoneWhoseInliersDropWellBelowItsRecentFrames) {
+  InlierHistory history{QualitySettings()};  // drop 0.1, window 20, 3 frames
+  for (double f : {0.98, 0.99, 0.97}) {
+    EXPECT_EQ(classify(&history, {f, 0.9}, {"ok", "ok"}), (std::vector<std::string>{"ok", "ok"}));
+  }
+  EXPECT_DOUBLE_EQ(history.median(0), 0.98);
+  // 0.2 below its median: a femur found on the wrong rim of a clean image. The tibia, whose
+  // fractions are lower but steady, stays ok.
+  EXPECT_EQ(classify(&history, {0.78, 0.9}, {"ok", "ok"}),
+            (std::vector<std::string>{"suspect", "ok"}));
+  // Less than the drop below: the ordinary scatter of a good frame.
+  EXPECT_EQ(classify(&history, {0.9, 0.85}, {"ok", "ok"}), (std::vector<std::string>{"ok", "ok"}));
+}
+
+TEST(InlierHistory, NeedsItsMinimumOfFramesAndCanBeTurnedOff) {
+  InlierHistory history{QualitySettings()};
+  EXPECT_EQ(classify(&history, {0.99}, {"ok"}), std::vector<std::string>{"ok"});
+  EXPECT_EQ(classify(&history, {0.99}, {"ok"}), std::vector<std::string>{"ok"});
+  // Two frames of history are not yet enough to judge the third.
+  EXPECT_EQ(classify(&history, {0.7}, {"ok"}), std::vector<std::string>{"ok"});
+  EXPECT_EQ(classify(&history, {0.7}, {"ok"}), std::vector<std::string>{"suspect"});
+
+  QualitySettings off;
+  off.relative_inlier_drop = 0.0;
+  InlierHistory unused(off);
+  for (int k = 0; k < 5; ++k) classify(&unused, {0.99}, {"ok"});
+  EXPECT_EQ(classify(&unused, {0.5}, {"ok"}), std::vector<std::string>{"ok"});
+}
+
+TEST(InlierHistory, LostFramesStayOutAndALastingChangeBecomesTheNewNormal) {
+  QualitySettings settings;
+  settings.relative_inlier_window = 6;
+  InlierHistory history(settings);
+  for (int k = 0; k < 6; ++k) classify(&history, {0.98}, {"ok"});
+  // A blank frame: lost already, and its fraction must not drag the median down.
+  EXPECT_EQ(classify(&history, {0.05}, {"lost"}), std::vector<std::string>{"lost"});
+  EXPECT_DOUBLE_EQ(history.median(0), 0.98);
+  // A suspect bone stays suspect (the history only adds doubt).
+  EXPECT_EQ(classify(&history, {0.97}, {"suspect"}), std::vector<std::string>{"suspect"});
+  // An occluder that stays: flagged at first, then (once it fills half the window) normal.
+  std::vector<std::string> statuses;
+  for (int k = 0; k < 6; ++k) statuses.push_back(classify(&history, {0.8}, {"ok"})[0]);
+  EXPECT_EQ(statuses.front(), "suspect");
+  EXPECT_EQ(statuses.back(), "ok");
+  EXPECT_NEAR(history.median(0), 0.8, 1e-12);
+}
+
+TEST(InlierHistory, SettingsAreValidated) {
+  QualitySettings s;
+  s.relative_inlier_drop = 1.5;
+  EXPECT_THROW(s.validate(), InputError);
+  s = QualitySettings();
+  s.relative_inlier_min_frames = 0;
+  EXPECT_THROW(s.validate(), InputError);
+  s = QualitySettings();
+  s.relative_inlier_min_frames = s.relative_inlier_window + 1;
+  EXPECT_THROW(s.validate(), InputError);
+  EXPECT_NO_THROW(QualitySettings().validate());
+}
+
+// Under a moving occluder a bone's good frames scatter by more than the fixed drop: the
+// allowance widens to relative_inlier_spread robust standard deviations of its history.
+TEST(InlierHistory, AllowsTheDropOfABoneWhoseFramesScatter) {
+  InlierHistory history{QualitySettings()};  // drop 0.1, spread 3
+  for (double f : {0.95, 0.85, 0.9, 0.95, 0.85}) classify(&history, {f, 0.99}, {"ok", "ok"});
+  // Median 0.9, absolute deviations 0.05, 0.05, 0, 0.05, 0.05: 3 x 1.4826 x 0.05.
+  EXPECT_NEAR(history.allowedDrop(0), 3.0 * 1.4826 * 0.05, 1e-12);
+  EXPECT_DOUBLE_EQ(history.allowedDrop(1), 0.1);
+  EXPECT_EQ(classify(&history, {0.72, 0.85}, {"ok", "ok"}),
+            (std::vector<std::string>{"ok", "suspect"}));
+  EXPECT_EQ(classify(&history, {0.6, 0.99}, {"ok", "ok"}),
+            (std::vector<std::string>{"suspect", "ok"}));
+}
