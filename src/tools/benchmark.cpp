@@ -337,7 +337,8 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
         << "condition,trial,frame,bone,bone_success,frame_success,inlier_fraction,"
            "contour_rms_px,penetration_mm,envelope_violation,out_of_plane_sd_mm,"
            "rotation_sd_deg,status,error_x_mm,error_y_mm,error_z_mm,error_rx_deg,error_ry_deg,"
-           "error_rz_deg\n";
+           "error_rz_deg,flexion_deg,adduction_deg,internal_rotation_deg,true_flexion_deg,"
+           "true_adduction_deg,true_internal_rotation_deg\n";
   }
   std::vector<Tally> tallies(conditions.size());
   for (Tally& t : tallies) {
@@ -440,11 +441,11 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
             penetration_probe.figures(result.poses[0], result.poses[1]);
         if (figures.max_depth_m > 0.5e-3) ++tally.deep_penetrations;
         const bool success = tally.succeeded(errors);
-        if (success) {
-          tally.addJoint(kinematics::kneeCoordinates(result.poses[0], result.poses[1],
-                                                     kinematics::Side::kRight),
-                         kinematics::kneeCoordinates(truth[0], truth[1], kinematics::Side::kRight));
-        }
+        const kinematics::KneeCoordinates knee =
+            kinematics::kneeCoordinates(result.poses[0], result.poses[1], kinematics::Side::kRight);
+        const kinematics::KneeCoordinates true_knee =
+            kinematics::kneeCoordinates(truth[0], truth[1], kinematics::Side::kRight);
+        if (success) tally.addJoint(knee, true_knee);
         tally.addSimilarity(imaging::projectionSimilarity(map, meshes, result.poses).total(),
                             similarity_truth, success);
         std::vector<std::string> status = registration::classifyBones(result, settings.quality);
@@ -474,6 +475,11 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
                 << "," << status[b];
             for (int i = 0; i < 3; ++i) *quality_csv << "," << errors[b].translation_mm[i];
             for (int i = 0; i < 3; ++i) *quality_csv << "," << errors[b].rotation_deg[i];
+            for (const auto* k : {&knee, &true_knee}) {
+              *quality_csv << "," << geometry::radToDeg(k->flexion_rad) << ","
+                           << geometry::radToDeg(k->adduction_rad) << ","
+                           << geometry::radToDeg(k->internal_rotation_rad);
+            }
             *quality_csv << "\n";
           }
         }
@@ -760,7 +766,9 @@ int main(int argc, char** argv) {
       "... or this many robust standard deviations of those frames' fractions, if more")(
       "quality-csv", po::value(&quality_csv_path),
       "write every registration's quality figures, status and errors (x, y in-plane and z along "
-      "the beam in mm; rotations about the bone's axes in deg) per bone to this CSV")(
+      "the beam in mm; rotations about the bone's axes in deg) and the knee's angles (result and "
+      "truth) "
+      "per bone to this CSV")(
       "failure-overlay-dir", po::value(&failure_overlay_dir),
       "write each failed simulated frame (first view) with the result's contours drawn, as "
       "failed_c<condition>_t<trial>_f<frame>.png, to this folder")(
