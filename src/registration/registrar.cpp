@@ -11,6 +11,7 @@
 #include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
+#include "fluoro_tracker/imaging/renderer.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/registration/contact_cost.h"
 #include "fluoro_tracker/registration/contour_distance_cost.h"
@@ -280,10 +281,14 @@ void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& 
 // how many of them lie within `inlier_px` (full-resolution pixels) of an image edge. The samples
 // are the model points of the last contour extracted per view (`model_points[v]`; the final
 // step is small, so the rim is the same), projected at the final pose; a view without them
-// has its contour extracted afresh.
+// has its contour extracted afresh. Samples inside another bone's silhouette (`covering[v]`:
+// masks on map v's pixels) are not counted: where one implant crosses another their edges
+// fade, so a femoral component over the tray in flexion would lose a fifth of its inliers to
+// the overlap alone, and the fraction would follow the motion rather than the fit.
 BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geometry::Pose& pose,
                          const std::vector<imaging::EdgeMap>& maps,
                          const std::vector<std::vector<Eigen::Vector3d>>& model_points,
+                         const std::vector<std::vector<const cv::Mat*>>& covering,
                          double inlier_px) {
   BoneQuality quality;
   int inliers = 0;
@@ -303,7 +308,22 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
         pixels.push_back(c.pixel);
       }
     }
+    const auto covered = [&](const Eigen::Vector2d& pixel) {
+      if (v >= covering.size()) return false;
+      const int u = static_cast<int>(std::lround(pixel.x()));
+      const int w = static_cast<int>(std::lround(pixel.y()));
+      for (const cv::Mat* mask : covering[v]) {
+        if (u >= 0 && w >= 0 && u < mask->cols && w < mask->rows && mask->at<uchar>(w, u) != 0) {
+          return true;
+        }
+      }
+      return false;
+    };
     for (const Eigen::Vector2d& pixel : pixels) {
+      if (covered(pixel)) {
+        ++quality.covered_points;
+        continue;
+      }
       ++quality.contour_points;
       double d = 0.0;
       double du = 0.0;
@@ -813,9 +833,26 @@ RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
     }
     result.joints.push_back(joint_result);
   }
+  // Each bone's silhouette per view, on the final map's pixels, for what covers what.
+  std::vector<std::vector<cv::Mat>> silhouettes(views.size(), std::vector<cv::Mat>(bones_.size()));
+  for (std::size_t v = 0; v < maps.size() && bones_.size() > 1; ++v) {
+    const geometry::XrayCamera& camera = maps[v].camera();
+    const geometry::Pose camera_from_fixed = camera.worldFromCamera().inverse();
+    for (std::size_t b = 0; b < bones_.size(); ++b) {
+      if (result.diverged[b]) continue;
+      silhouettes[v][b] = imaging::Renderer::coverage(camera, bones_[b].silhouette->mesh(),
+                                                      camera_from_fixed * result.poses[b]);
+    }
+  }
   for (std::size_t b = 0; b < bones_.size(); ++b) {
+    std::vector<std::vector<const cv::Mat*>> covering(views.size());
+    for (std::size_t v = 0; v < maps.size(); ++v) {
+      for (std::size_t o = 0; o < bones_.size(); ++o) {
+        if (o != b && !silhouettes[v][o].empty()) covering[v].push_back(&silhouettes[v][o]);
+      }
+    }
     result.quality.push_back(imageQuality(*bones_[b].silhouette, result.poses[b], maps,
-                                          finest_model_points[b],
+                                          finest_model_points[b], covering,
                                           settings_.quality.inlier_distance_px));
     if (b < result.covariance_valid.size() && result.covariance_valid[b]) {
       addCovarianceQuality(result.covariances[b], result.poses[b], views.front().camera,

@@ -13,8 +13,12 @@ struct RegistrationResult;
 
 // How well one bone's registration is supported by its image, at the final pose.
 struct BoneQuality {
-  int contour_points = 0;                // projected contour samples in all views (full resolution)
-  double contour_inlier_fraction = 0.0;  // of those, the share within inlier_distance_px of an edge
+  // Projected contour samples in all views (full resolution), but for those inside another
+  // bone's silhouette (covered_points), whose edges the overlap fades.
+  int contour_points = 0;
+  int covered_points = 0;
+  double contour_inlier_fraction =
+      0.0;                      // of contour_points, the share within inlier_distance_px of an edge
   double contour_rms_px = 0.0;  // RMS edge distance of the inliers (full-resolution pixels)
   // From the solver's covariance (RegistrationResult::covariances, when computed): the
   // translation's standard deviation along the first view's beam (m), the direction
