@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "fluoro_tracker/median.h"
+
 namespace fluoro_tracker {
 namespace registration {
 
@@ -13,32 +15,23 @@ InlierHistory::InlierHistory(const QualitySettings& settings)
       window_(static_cast<std::size_t>(std::max(settings.relative_inlier_window, 1))),
       min_frames_(static_cast<std::size_t>(std::max(settings.relative_inlier_min_frames, 1))) {}
 
-namespace {
-
-double medianOf(std::vector<double> values) {
-  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const std::size_t half = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + half, values.end());
-  if (values.size() % 2 == 1) return values[half];
-  const double upper = values[half];
-  const double lower = *std::max_element(values.begin(), values.begin() + half);
-  return 0.5 * (lower + upper);
-}
-
-}  // namespace
-
 double InlierHistory::median(std::size_t bone) const {
-  if (bone >= recent_.size()) return std::numeric_limits<double>::quiet_NaN();
-  return medianOf(std::vector<double>(recent_[bone].begin(), recent_[bone].end()));
+  if (bone >= recent_.size() || recent_[bone].empty()) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  return fluoro_tracker::median(std::vector<double>(recent_[bone].begin(), recent_[bone].end()));
 }
 
 double InlierHistory::allowedDrop(std::size_t bone) const {
-  const double centre = median(bone);
+  return allowedDropAround(bone, median(bone));
+}
+
+double InlierHistory::allowedDropAround(std::size_t bone, double centre) const {
   if (!std::isfinite(centre)) return drop_;
   std::vector<double> deviations;
   for (const double f : recent_[bone]) deviations.push_back(std::abs(f - centre));
   // 1.4826 x the median absolute deviation: the standard deviation of a normal scatter.
-  return std::max(drop_, spread_ * 1.4826 * medianOf(std::move(deviations)));
+  return std::max(drop_, spread_ * 1.4826 * fluoro_tracker::median(std::move(deviations)));
 }
 
 void InlierHistory::classify(const std::vector<BoneQuality>& quality,
@@ -48,9 +41,9 @@ void InlierHistory::classify(const std::vector<BoneQuality>& quality,
   for (std::size_t b = 0; b < bones; ++b) {
     const double fraction = quality[b].contour_inlier_fraction;
     std::string& bone_status = (*status)[b];
-    if (drop_ > 0.0 && bone_status == "ok" && recent_[b].size() >= min_frames_ &&
-        fraction < median(b) - allowedDrop(b)) {
-      bone_status = "suspect";
+    if (drop_ > 0.0 && bone_status == "ok" && recent_[b].size() >= min_frames_) {
+      const double centre = median(b);
+      if (fraction < centre - allowedDropAround(b, centre)) bone_status = "suspect";
     }
     if (bone_status == "lost") continue;
     recent_[b].push_back(fraction);

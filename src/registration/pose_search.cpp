@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/median.h"
 #include "fluoro_tracker/registration/mirror_ambiguity.h"
 
 namespace fluoro_tracker {
@@ -75,13 +76,6 @@ std::vector<geometry::Pose> shapeMatchStarts(const imaging::SilhouetteLibrary& l
     }
   }
   return poses;
-}
-
-// The median of some values (which it reorders); 0 for none.
-double median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return values[values.size() / 2];
 }
 
 // Starting poses for one bone (camera frame) from chamfer matching of its library on the

@@ -12,6 +12,7 @@
 #include <random>
 
 #include "fluoro_tracker/constraints/articular_contact.h"
+#include "fluoro_tracker/median.h"
 #include "fluoro_tracker/registration/contact_cost.h"
 #include "fluoro_tracker/sim/mesh_builder.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
@@ -24,11 +25,6 @@ namespace {
 
 double milliseconds(Clock::time_point since) {
   return std::chrono::duration<double, std::milli>(Clock::now() - since).count();
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
 }
 
 void run(const std::string& name, const geometry::Mesh& parent, const geometry::Mesh& child,

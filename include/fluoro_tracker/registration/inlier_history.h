@@ -31,13 +31,16 @@ class InlierHistory {
   // fractions of the bones not lost. `quality` and `status` are per bone.
   void classify(const std::vector<BoneQuality>& quality, std::vector<std::string>* status);
 
-  // The median of a bone's recorded fractions (NaN without any).
+  // The median of a bone's recorded fractions (the upper middle one of an even count; NaN
+  // without any).
   double median(std::size_t bone) const;
 
   // How far below the median a bone's fraction may lie before it is suspect.
   double allowedDrop(std::size_t bone) const;
 
  private:
+  double allowedDropAround(std::size_t bone, double centre) const;
+
   double drop_;
   double spread_;
   std::size_t window_;
