@@ -767,8 +767,7 @@ int main(int argc, char** argv) {
       "quality-csv", po::value(&quality_csv_path),
       "write every registration's quality figures, status and errors (x, y in-plane and z along "
       "the beam in mm; rotations about the bone's axes in deg) and the knee's angles (result and "
-      "truth) "
-      "per bone to this CSV")(
+      "truth) per bone to this CSV")(
       "failure-overlay-dir", po::value(&failure_overlay_dir),
       "write each failed simulated frame (first view) with the result's contours drawn, as "
       "failed_c<condition>_t<trial>_f<frame>.png, to this folder")(

@@ -17,8 +17,8 @@ struct BoneQuality {
   // bone's silhouette (covered_points), whose edges the overlap fades.
   int contour_points = 0;
   int covered_points = 0;
-  double contour_inlier_fraction =
-      0.0;                      // of contour_points, the share within inlier_distance_px of an edge
+  // Of contour_points, the share within inlier_distance_px of an image edge.
+  double contour_inlier_fraction = 0.0;
   double contour_rms_px = 0.0;  // RMS edge distance of the inliers (full-resolution pixels)
   // From the solver's covariance (RegistrationResult::covariances, when computed): the
   // translation's standard deviation along the first view's beam (m), the direction

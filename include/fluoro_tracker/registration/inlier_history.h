@@ -11,8 +11,8 @@ namespace fluoro_tracker {
 namespace registration {
 
 // A bone's contour inlier fraction at its true pose depends on the trial: near 1 on a clean
-// image, 0.8-0.95 under an occluding rod, noise or a low resolution, lower still where the other
-// bone covers it in deep flexion. The absolute thresholds of QualitySettings must pass the
+// image, 0.8-0.95 under an occluding rod, noise or a low resolution (contour covered by another
+// bone is not counted, see BoneQuality). The absolute thresholds of QualitySettings must pass the
 // poorest of those, so a wrong pose on a clean image (a femur found on the wrong rim, about 0.6-0.8
 // of its contour on edges) is called ok. InlierHistory compares each bone with itself: it keeps
 // the inlier fractions of the bone's recent frames and marks a bone suspect whose fraction lies
