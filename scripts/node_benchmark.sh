@@ -5,7 +5,8 @@
 #      axis), and from no guess at all, with ~recover: frames within the 1 mm / 2 / 3 deg
 #      criteria, and frames per second from the service's own timing;
 #   2. live latency: latency_benchmark publishes the trial at 30 Hz into the node and prints
-#      the publish-to-tf latency and the frames the node dropped.
+#      the publish-to-tf latency and the frames the node dropped, with the node's default
+#      queue (~queue_size 30) and with the latest frame only (~queue_size 1).
 # Usage: scripts/node_benchmark.sh [frames (200)]   (after scripts/build.sh)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -86,6 +87,10 @@ done
 kill "$master_pid"
 wait "$master_pid" 2> /dev/null || true
 master_pid=
-roslaunch fluoro_tracker latency_benchmark.launch trial:="$work/trial" 2>&1 |
-  grep "latency_benchmark:" | sed 's/^/node_benchmark: /'
+# Live at 30 Hz: with the node's default queue (every frame tracked, a backlog after slow
+# frames), then keeping only the latest frame (lowest latency, frames dropped when busy).
+for queue_size in 30 1; do
+  roslaunch fluoro_tracker latency_benchmark.launch trial:="$work/trial" queue_size:="$queue_size" 2>&1 |
+    grep "latency_benchmark:" | sed "s/^/node_benchmark: queue_size $queue_size: /"
+done
 rm -rf "$work"

@@ -65,6 +65,13 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   reinitialize_service_ =
       private_nh_.advertiseService("reinitialize", &TrackerNode::onReinitialize, this);
   play_bag_service_ = private_nh_.advertiseService("play_bag", &TrackerNode::onPlayBag, this);
+  int queue_size = static_cast<int>(queue_size_);
+  private_nh_.param("queue_size", queue_size, queue_size);
+  if (queue_size < 1) {
+    throw InputError("tracker_node: ~queue_size must be at least 1 frame, not " +
+                     std::to_string(queue_size));
+  }
+  queue_size_ = static_cast<std::size_t>(queue_size);
   worker_ = std::thread(&TrackerNode::work, this);
   private_nh_.param("load_threshold_n", load_threshold_n_, 0.0);
   private_nh_.param("compression_sign", compression_sign_, -1.0);
@@ -78,17 +85,20 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   bool exact_sync = true;
   private_nh_.param("exact_sync", exact_sync, true);
   if (views == 1) {
-    camera_subscriber_ = image_transport_.subscribeCamera("image", 2, &TrackerNode::onImage, this);
+    // The callback only converts and queues, so the subscriber's own queue rarely fills; as deep
+    // as ours, a burst that ours can hold is not lost uncounted before it.
+    camera_subscriber_ =
+        image_transport_.subscribeCamera("image", queue_size, &TrackerNode::onImage, this);
     ROS_INFO("tracker_node: tracking %zu bone(s) from '%s' on %s", config_.bones.size(),
              config_path.c_str(), camera_subscriber_.getTopic().c_str());
   } else if (views == 2) {
     for (int v = 1; v <= 2; ++v) {
       const std::string prefix = "view_" + std::to_string(v) + "/";
       image_filters_.push_back(std::make_unique<image_transport::SubscriberFilter>(
-          image_transport_, prefix + "image", 2));
+          image_transport_, prefix + "image", queue_size));
       info_filters_.push_back(
           std::make_unique<message_filters::Subscriber<sensor_msgs::CameraInfo>>(
-              nh_, prefix + "camera_info", 2));
+              nh_, prefix + "camera_info", queue_size));
     }
     if (exact_sync) {
       exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
@@ -192,12 +202,27 @@ void TrackerNode::enqueue(const std::vector<sensor_msgs::ImageConstPtr>& images,
     frame.infos.push_back(*infos[v]);
   }
   frame.header = images.front()->header;
+  double dropped_stamp = -1.0;
+  std::size_t waiting = 0;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
-    if (pending_) ++frames_dropped_;  // the waiting frame is replaced: latest wins
-    pending_ = std::move(frame);
+    if (pending_.size() >= queue_size_) {
+      // Full: the oldest waiting frame goes, so that the newest are tracked without delay.
+      dropped_stamp = pending_.front().header.stamp.toSec();
+      pending_.pop_front();
+      ++frames_dropped_;
+    }
+    pending_.push_back(std::move(frame));
+    waiting = pending_.size();
   }
   queue_ready_.notify_one();
+  if (dropped_stamp >= 0.0 && queue_size_ > 1) {
+    ROS_WARN_THROTTLE(5.0,
+                      "tracker_node: %zu frames waiting, the queue is full: dropped the frame at "
+                      "%.3f (frames arrive faster than they are tracked; raise ~queue_size to "
+                      "keep them)",
+                      waiting, dropped_stamp);
+  }
 }
 
 void TrackerNode::work() {
@@ -205,10 +230,10 @@ void TrackerNode::work() {
     PendingFrame frame;
     {
       std::unique_lock<std::mutex> lock(queue_mutex_);
-      queue_ready_.wait(lock, [this] { return stopping_ || pending_.has_value(); });
+      queue_ready_.wait(lock, [this] { return stopping_ || !pending_.empty(); });
       if (stopping_) return;
-      frame = std::move(*pending_);
-      pending_.reset();
+      frame = std::move(pending_.front());
+      pending_.pop_front();
     }
     process(frame);
   }
@@ -412,6 +437,7 @@ void TrackerNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) 
   }
   status.add("frames tracked", frames_tracked_);
   status.add("frames dropped (tracker busy)", frames_dropped_);
+  status.add("frames waiting", pending_.size());
   status.add("bone-frames lost", frames_lost_);
   status.add("last solve time (s)", last_solve_seconds_);
 }

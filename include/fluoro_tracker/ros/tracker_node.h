@@ -1,6 +1,7 @@
 #pragma once
 
 #include <condition_variable>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -38,9 +39,11 @@ namespace ros_bridge {
 // One view through an image_transport camera subscription (`image` + its `camera_info`), or
 // two (bi-plane, ~views: 2) through `view_1/image`, `view_1/camera_info`, `view_2/...`
 // synchronised by message_filters (exact stamps, or approximate with ~exact_sync: false).
-// Frames are registered on a worker thread; a frame that arrives while one is waiting is
-// replaced by it (latest wins) and counted as dropped. Publishes tf fixed_frame -> <bone>
-// stamped with the image stamp, ~kinematics, ~status, ~overlay, ~markers (bone meshes and
+// Frames are registered in order on a worker thread from a queue of ~queue_size frames (30 by
+// default, a second at 30 Hz, so that a replayed trial loses no frame to a few slow ones); when
+// the queue is full the oldest waiting frame is dropped, counted and logged (~queue_size: 1
+// keeps only the latest, for the lowest latency on a live stream). Publishes tf fixed_frame ->
+// <bone> stamped with the image stamp, ~kinematics, ~status, ~overlay, ~markers (bone meshes and
 // contact points) and diagnostics; serves ~reinitialize and ~play_bag. Bad input is logged with its
 // reason; the node keeps running and publishes nothing non-finite.
 class TrackerNode {
@@ -133,7 +136,8 @@ class TrackerNode {
 
   std::mutex queue_mutex_;
   std::condition_variable queue_ready_;
-  std::optional<PendingFrame> pending_;
+  std::deque<PendingFrame> pending_;  // oldest first
+  std::size_t queue_size_ = 30;       // ~queue_size
   std::uint32_t frames_dropped_ = 0;
   // For diagnostics (worker thread only, read under queue_mutex_).
   std::uint32_t frames_tracked_ = 0;
