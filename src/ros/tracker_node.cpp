@@ -33,7 +33,7 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
       tf_listener_(tf_buffer_) {
   std::string config_path;
   if (!private_nh_.getParam("config", config_path) || config_path.empty()) {
-    throw InputError("tracker_node: the ~config parameter (the trial YAML) is required");
+    throw InputError("the ~config parameter (the trial YAML) is required");
   }
   config_ = io::loadTrialConfig(config_path);
   models_ = io::loadTrialModels(config_);
@@ -68,11 +68,9 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   int queue_size = static_cast<int>(queue_size_);
   private_nh_.param("queue_size", queue_size, queue_size);
   if (queue_size < 1) {
-    throw InputError("tracker_node: ~queue_size must be at least 1 frame, not " +
-                     std::to_string(queue_size));
+    throw InputError("~queue_size must be at least 1 frame, not " + std::to_string(queue_size));
   }
   queue_size_ = static_cast<std::size_t>(queue_size);
-  worker_ = std::thread(&TrackerNode::work, this);
   private_nh_.param("load_threshold_n", load_threshold_n_, 0.0);
   private_nh_.param("compression_sign", compression_sign_, -1.0);
   private_nh_.param("wrench_max_age_s", wrench_max_age_s_, 0.1);
@@ -114,8 +112,10 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
     ROS_INFO("tracker_node: tracking %zu bone(s) from '%s' on two views (%s sync)",
              config_.bones.size(), config_path.c_str(), exact_sync ? "exact" : "approximate");
   } else {
-    throw InputError("tracker_node: ~views must be 1 or 2, not " + std::to_string(views));
+    throw InputError("~views must be 1 or 2, not " + std::to_string(views));
   }
+  // Last: a constructor that throws must not leave a running thread behind.
+  worker_ = std::thread(&TrackerNode::work, this);
 }
 
 void TrackerNode::publishLabTransform() {
