@@ -240,6 +240,16 @@ void TrackerNode::work() {
 }
 
 void TrackerNode::process(const PendingFrame& frame) {
+  // Frames are tracked in arrival order. One stamped no later than the last tracked frame is
+  // still tracked (no data is lost), from the last result, but said: its motion prediction
+  // runs the wrong way, and tf listeners ignore a transform whose stamp repeats.
+  if (!last_stamp_.isZero() && frame.header.stamp <= last_stamp_) {
+    ROS_WARN_THROTTLE(5.0,
+                      "tracker_node: out-of-order stamps: the frame at %.6f is not newer than the "
+                      "last tracked frame at %.6f; tracked anyway",
+                      frame.header.stamp.toSec(), last_stamp_.toSec());
+  }
+  last_stamp_ = std::max(last_stamp_, frame.header.stamp);
   std::vector<registration::ViewImage> views;
   std::string fixed_frame;
   try {

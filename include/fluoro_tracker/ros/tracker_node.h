@@ -143,6 +143,7 @@ class TrackerNode {
   std::uint32_t frames_tracked_ = 0;
   std::uint32_t frames_lost_ = 0;
   double last_solve_seconds_ = 0.0;
+  ros::Time last_stamp_;  // the newest stamp tracked (worker thread only)
   bool stopping_ = false;
   std::thread worker_;
 };
