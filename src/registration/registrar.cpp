@@ -780,9 +780,7 @@ RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
         result.cost_evaluations += summary.num_residual_evaluations;
         result.solver_iterations += static_cast<int>(summary.iterations.size());
         result.final_cost = summary.final_cost;
-        if (settings_.compute_covariance) {
-          estimateCovariances(&problem, summary, increments, centres, result.poses, &result);
-        }
+        const std::vector<geometry::Pose> linearised = result.poses;  // the increments' origin
 
         double max_translation = 0.0;
         double max_rotation = 0.0;
@@ -804,10 +802,15 @@ RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
           max_translation =
               std::max(max_translation, Eigen::Vector3d(inc[3], inc[4], inc[5]).norm());
         }
-        if (max_translation < settings_.converged_translation_m &&
-            max_rotation < settings_.converged_rotation_rad) {
-          break;
+        const bool converged = max_translation < settings_.converged_translation_m &&
+                               max_rotation < settings_.converged_rotation_rad;
+        // The covariance of the registration's last solve only: each costs a Jacobian evaluation.
+        const bool last_solve = finest && stage_index + 1 == schedule.size() &&
+                                (converged || outer + 1 == outer_iterations);
+        if (settings_.compute_covariance && last_solve) {
+          estimateCovariances(&problem, summary, increments, centres, linearised, &result);
         }
+        if (converged) break;
       }
     }
   }
