@@ -546,7 +546,8 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
         deviation(result.poses) - settings_.mirror_check.min_neutral_gain;
     double best_deviation = std::numeric_limits<double>::infinity();
     SolveCounts counts(result);
-    RegistrationResult best;
+    // The candidates' joint figures and image quality are worked out for the one kept only.
+    Solution best;
     bool replaced = false;
     for (std::size_t c = 0; c < candidates.size(); ++c) {
       const geometry::Pose& candidate = candidates[c];
@@ -564,7 +565,9 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
       std::vector<geometry::Pose> starts = result.poses;
       starts[joint.child] = camera_from_fixed.inverse() * candidate;
       // The mirror differs from the solution in rotation only: the finest scale's maps serve.
-      RegistrationResult mirror = solveFrom(views, starts, loaded, offset_priors, &finest_maps);
+      Solution candidate_solution =
+          solveUnfinished(views, starts, loaded, offset_priors, &finest_maps);
+      const RegistrationResult& mirror = candidate_solution.result;
       counts.add(mirror);
       if (mirror.diverged[joint.parent] || mirror.diverged[joint.child] ||
           mirror.final_cost > (1.0 + settings_.mirror_check.cost_tolerance) * first_cost) {
@@ -573,11 +576,14 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
       const double mirror_deviation = deviation(mirror.poses);
       if (mirror_deviation < required_deviation && mirror_deviation < best_deviation) {
         best_deviation = mirror_deviation;
-        best = std::move(mirror);
+        best = std::move(candidate_solution);
         replaced = true;
       }
     }
-    if (replaced) result = std::move(best);
+    if (replaced) {
+      finish(views, &best);
+      result = std::move(best.result);
+    }
     counts.writeTo(&result);
   }
   return result;
@@ -588,6 +594,17 @@ RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
                                         const std::vector<bool>& loaded,
                                         const EdgeOffsetPriors& offset_priors,
                                         std::vector<imaging::EdgeMap>* finest_maps) const {
+  const bool reuse_maps = finest_maps != nullptr && !finest_maps->empty();
+  Solution solution = solveUnfinished(views, initial_poses, loaded, offset_priors, finest_maps);
+  finish(views, &solution);
+  if (finest_maps != nullptr && !reuse_maps) *finest_maps = std::move(solution.maps);
+  return std::move(solution.result);
+}
+
+Registrar::Solution Registrar::solveUnfinished(
+    const std::vector<ViewImage>& views, const std::vector<geometry::Pose>& initial_poses,
+    const std::vector<bool>& loaded, const EdgeOffsetPriors& offset_priors,
+    const std::vector<imaging::EdgeMap>* finest_maps) const {
   if (views.empty()) throw InputError("registration: no views");
   if (initial_poses.size() != bones_.size()) {
     throw InputError("registration: " + std::to_string(initial_poses.size()) + " pose(s) for " +
@@ -818,6 +835,14 @@ RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
   for (auto& per_view : result.edge_offsets_px) {
     for (double& o : per_view) o /= previous_scale;
   }
+  return Solution{std::move(result), std::move(finest_model_points), std::move(maps)};
+}
+
+void Registrar::finish(const std::vector<ViewImage>& views, Solution* solution) const {
+  RegistrationResult& result = solution->result;
+  const std::vector<imaging::EdgeMap>& maps = solution->maps;
+  result.joints.clear();
+  result.quality.clear();
   for (const auto& joint : joints_) {
     JointResult joint_result;
     joint_result.parent = joint.parent;
@@ -855,15 +880,13 @@ RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
       }
     }
     result.quality.push_back(imageQuality(*bones_[b].silhouette, result.poses[b], maps,
-                                          finest_model_points[b], covering,
+                                          solution->contour_model_points[b], covering,
                                           settings_.quality.inlier_distance_px));
     if (b < result.covariance_valid.size() && result.covariance_valid[b]) {
       addCovarianceQuality(result.covariances[b], result.poses[b], views.front().camera,
                            &result.quality.back());
     }
   }
-  if (finest_maps != nullptr && !reuse_maps) *finest_maps = std::move(maps);
-  return result;
 }
 
 }  // namespace registration

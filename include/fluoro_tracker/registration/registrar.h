@@ -291,19 +291,35 @@ class Registrar {
                            const EdgeOffsetPriors& offset_priors = {}) const;
 
  private:
-  // One registration from these starts (solve is this plus the mirror check). `finest_maps`
-  // (optional): when it holds maps, only the finest scale runs, on them; when empty, it
-  // receives the finest scale's maps.
+  // A registration's poses before its joint figures and image quality are worked out, with
+  // what they need: per bone and view, the model points of the finest scale's last contour, and
+  // the finest scale's maps.
+  struct Solution {
+    RegistrationResult result;
+    std::vector<std::vector<std::vector<Eigen::Vector3d>>> contour_model_points;
+    std::vector<imaging::EdgeMap> maps;
+  };
+
   // solveFrom, then the mirror check (single view).
   RegistrationResult solveChecked(const std::vector<ViewImage>& views,
                                   const std::vector<geometry::Pose>& initial_poses,
                                   const std::vector<bool>& loaded,
                                   const EdgeOffsetPriors& offset_priors) const;
+  // One registration from these starts (solve is this plus the mirror check), finished.
+  // `finest_maps` (optional): when it holds maps, only the finest scale runs, on them; when
+  // empty, it receives the finest scale's maps.
   RegistrationResult solveFrom(const std::vector<ViewImage>& views,
                                const std::vector<geometry::Pose>& initial_poses,
                                const std::vector<bool>& loaded,
                                const EdgeOffsetPriors& offset_priors,
                                std::vector<imaging::EdgeMap>* finest_maps = nullptr) const;
+  // The solve itself; `finest_maps` as in solveFrom, but only read.
+  Solution solveUnfinished(const std::vector<ViewImage>& views,
+                           const std::vector<geometry::Pose>& initial_poses,
+                           const std::vector<bool>& loaded, const EdgeOffsetPriors& offset_priors,
+                           const std::vector<imaging::EdgeMap>* finest_maps) const;
+  // Adds each joint's coordinates and figures and each bone's image quality.
+  void finish(const std::vector<ViewImage>& views, Solution* solution) const;
 
   std::vector<BoneModel> bones_;
   RegistrationSettings settings_;
