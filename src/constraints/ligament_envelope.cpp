@@ -23,6 +23,14 @@ void LigamentSettings::validate() const {
   if (!(stiffness_per_deg >= 0.0) || !(stiffness_per_mm >= 0.0)) {
     throw InputError("ligaments: stiffness_per_deg and stiffness_per_mm must be >= 0");
   }
+  for (std::size_t i = 0; i < bundles.size(); ++i) {
+    bundles[i].validate();
+    for (std::size_t j = 0; j < i; ++j) {
+      if (bundles[j].name == bundles[i].name) {
+        throw InputError("ligaments: two bundles are named '" + bundles[i].name + "'");
+      }
+    }
+  }
 }
 
 }  // namespace constraints

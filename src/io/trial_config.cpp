@@ -138,7 +138,7 @@ constraints::LigamentSettings readLigamentSettings(const YAML::Node& joint,
   const YamlSection section(node, context + ".ligaments");
   const auto& names = constraints::LigamentSettings::coordinateNames();
   section.allowOnly({"enabled", names[0], names[1], names[2], names[3], names[4], names[5],
-                     "stiffness_per_deg", "stiffness_per_mm"});
+                     "stiffness_per_deg", "stiffness_per_mm", "bundles"});
   section.read("enabled", &l.enabled);
   for (int k = 0; k < 6; ++k) {
     std::vector<double> bounds;
@@ -152,6 +152,31 @@ constraints::LigamentSettings readLigamentSettings(const YAML::Node& joint,
   }
   section.read("stiffness_per_deg", &l.stiffness_per_deg);
   section.read("stiffness_per_mm", &l.stiffness_per_mm);
+  const YAML::Node bundles = node["bundles"];
+  if (bundles && !bundles.IsSequence()) {
+    throw InputError(context + ".ligaments.bundles must be a list");
+  }
+  for (std::size_t i = 0; bundles && i < bundles.size(); ++i) {
+    const std::string where = context + ".ligaments.bundles[" + std::to_string(i) + "]";
+    const YamlSection b(bundles[i], where);
+    b.allowOnly({"name", "parent_insertion_mm", "child_insertion_mm", "slack_length_mm",
+                 "stiffness_per_mm"});
+    constraints::LigamentBundle bundle;
+    b.read("name", &bundle.name);
+    const auto point_m = [&](const char* key) -> Eigen::Vector3d {
+      std::vector<double> mm;
+      b.read(key, &mm);
+      if (mm.size() != 3) throw InputError(where + "." + key + " needs [x, y, z] in mm");
+      return Eigen::Vector3d(mm[0], mm[1], mm[2]) * 1e-3;
+    };
+    bundle.parent_insertion_m = point_m("parent_insertion_mm");
+    bundle.child_insertion_m = point_m("child_insertion_mm");
+    double slack_mm = 0.0;
+    b.read("slack_length_mm", &slack_mm);
+    bundle.slack_length_m = slack_mm * 1e-3;
+    b.read("stiffness_per_mm", &bundle.stiffness_per_mm);
+    l.bundles.push_back(bundle);
+  }
   try {
     l.validate();
   } catch (const InputError& e) {
@@ -512,6 +537,24 @@ void saveTrialConfig(const std::string& path, const TrialConfig& config) {
       }
       out << YAML::Key << "stiffness_per_deg" << YAML::Value << l.stiffness_per_deg;
       out << YAML::Key << "stiffness_per_mm" << YAML::Value << l.stiffness_per_mm;
+      if (!l.bundles.empty()) {
+        out << YAML::Key << "bundles" << YAML::Value << YAML::BeginSeq;
+        for (const auto& b : l.bundles) {
+          const auto mm = [](const Eigen::Vector3d& m) {
+            return std::vector<double>{1e3 * m.x(), 1e3 * m.y(), 1e3 * m.z()};
+          };
+          out << YAML::BeginMap;
+          out << YAML::Key << "name" << YAML::Value << b.name;
+          out << YAML::Key << "parent_insertion_mm" << YAML::Value << YAML::Flow
+              << mm(b.parent_insertion_m);
+          out << YAML::Key << "child_insertion_mm" << YAML::Value << YAML::Flow
+              << mm(b.child_insertion_m);
+          out << YAML::Key << "slack_length_mm" << YAML::Value << 1e3 * b.slack_length_m;
+          out << YAML::Key << "stiffness_per_mm" << YAML::Value << b.stiffness_per_mm;
+          out << YAML::EndMap;
+        }
+        out << YAML::EndSeq;
+      }
       out << YAML::EndMap;
       out << YAML::EndMap;
     }

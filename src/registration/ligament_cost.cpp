@@ -21,24 +21,41 @@ void movedFrame(const geometry::Pose& frame, const Eigen::Vector3d& centre, cons
             Eigen::Matrix<T, 3, 1>(increment[3], increment[4], increment[5]);
 }
 
-struct KneeLigamentResiduals {
-  constraints::LigamentSettings settings;
-  kinematics::Side side;
+// A joint's two frames at the linearisation, with the bones' rotation centres: both moved by
+// their increments.
+struct JointFrames {
   geometry::Pose parent_frame;
   Eigen::Vector3d parent_centre;
   geometry::Pose child_frame;
   Eigen::Vector3d child_centre;
 
   template <typename T>
-  bool operator()(const T* parent_increment, const T* child_increment, T* residuals) const {
+  struct Moved {
     Eigen::Matrix<T, 3, 3> parent_r;
     Eigen::Matrix<T, 3, 1> parent_o;
     Eigen::Matrix<T, 3, 3> child_r;
     Eigen::Matrix<T, 3, 1> child_o;
-    movedFrame(parent_frame, parent_centre, parent_increment, &parent_r, &parent_o);
-    movedFrame(child_frame, child_centre, child_increment, &child_r, &child_o);
-    const Eigen::Matrix<T, 3, 3> relative_r = parent_r.transpose() * child_r;
-    const Eigen::Matrix<T, 3, 1> relative_t = parent_r.transpose() * (child_o - parent_o);
+  };
+
+  template <typename T>
+  Moved<T> moved(const T* parent_increment, const T* child_increment) const {
+    Moved<T> m;
+    movedFrame(parent_frame, parent_centre, parent_increment, &m.parent_r, &m.parent_o);
+    movedFrame(child_frame, child_centre, child_increment, &m.child_r, &m.child_o);
+    return m;
+  }
+};
+
+struct KneeLigamentResiduals {
+  constraints::LigamentSettings settings;
+  kinematics::Side side;
+  JointFrames frames;  // the anatomical frames
+
+  template <typename T>
+  bool operator()(const T* parent_increment, const T* child_increment, T* residuals) const {
+    const auto m = frames.moved(parent_increment, child_increment);
+    const Eigen::Matrix<T, 3, 3> relative_r = m.parent_r.transpose() * m.child_r;
+    const Eigen::Matrix<T, 3, 1> relative_t = m.parent_r.transpose() * (m.child_o - m.parent_o);
     T coordinates[6];
     kinematics::kneeCoordinatesInFemurFrame<T>(relative_r, relative_t, side, coordinates);
     constraints::ligamentResiduals(settings, coordinates, residuals);
@@ -46,7 +63,34 @@ struct KneeLigamentResiduals {
   }
 };
 
+struct LigamentBundleResiduals {
+  std::vector<constraints::LigamentBundle> bundles;
+  JointFrames frames;  // the bones' mesh frames
+
+  template <typename T>
+  bool operator()(const T* parent_increment, const T* child_increment, T* residuals) const {
+    const auto m = frames.moved(parent_increment, child_increment);
+    for (std::size_t i = 0; i < bundles.size(); ++i) {
+      const auto& b = bundles[i];
+      residuals[i] = b.residual<T>(m.parent_r * b.parent_insertion_m.cast<T>() + m.parent_o,
+                                   m.child_r * b.child_insertion_m.cast<T>() + m.child_o);
+    }
+    return true;
+  }
+};
+
 }  // namespace
+
+ceres::CostFunction* makeLigamentBundleCost(const std::vector<constraints::LigamentBundle>& bundles,
+                                            const geometry::Pose& parent_pose,
+                                            const Eigen::Vector3d& parent_centre,
+                                            const geometry::Pose& child_pose,
+                                            const Eigen::Vector3d& child_centre) {
+  if (bundles.empty()) return nullptr;
+  return new ceres::AutoDiffCostFunction<LigamentBundleResiduals, ceres::DYNAMIC, 6, 6>(
+      new LigamentBundleResiduals{bundles, {parent_pose, parent_centre, child_pose, child_centre}},
+      static_cast<int>(bundles.size()));
+}
 
 ceres::CostFunction* makeKneeLigamentCost(const constraints::LigamentSettings& settings,
                                           kinematics::Side side, const geometry::Pose& parent_frame,
@@ -54,7 +98,7 @@ ceres::CostFunction* makeKneeLigamentCost(const constraints::LigamentSettings& s
                                           const geometry::Pose& child_frame,
                                           const Eigen::Vector3d& child_centre) {
   return new ceres::AutoDiffCostFunction<KneeLigamentResiduals, 6, 6, 6>(new KneeLigamentResiduals{
-      settings, side, parent_frame, parent_centre, child_frame, child_centre});
+      settings, side, {parent_frame, parent_centre, child_frame, child_centre}});
 }
 
 }  // namespace registration

@@ -617,9 +617,7 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
       const geometry::Pose& parent = poses[joint.parent];
       const geometry::Pose& child = poses[joint.child];
       score -= jointPenalty(
-          joint.ligaments.enabled
-              ? envelopeViolation(joint.ligaments, joint.coordinates(parent, child))
-              : 0.0,
+          joint.ligaments.enabled ? joint.envelopeViolation(parent, child) : 0.0,
           joint.contact ? joint.contact->figures(parent, child, false).max_depth_m : 0.0);
     }
     combinations.emplace_back(score, choice);

@@ -778,6 +778,11 @@ Registrar::Solution Registrar::solveUnfinished(
                                      parent_pose * joint.parent_anatomical, centres[joint.parent],
                                      child_pose * joint.child_anatomical, centres[joint.child]),
                 nullptr, parent_increment, child_increment);
+            if (ceres::CostFunction* bundles = makeLigamentBundleCost(
+                    joint.ligaments.bundles, parent_pose, centres[joint.parent], child_pose,
+                    centres[joint.child])) {
+              problem.AddResidualBlock(bundles, nullptr, parent_increment, child_increment);
+            }
           }
         }
         if (problem.NumResidualBlocks() == 0) break;
@@ -856,8 +861,7 @@ void Registrar::finish(const std::vector<ViewImage>& views, Solution* solution) 
       joint_result.quality.penetration_m = joint_result.contact.max_depth_m;
     }
     if (joint.ligaments.enabled) {
-      joint_result.quality.envelope_violation =
-          envelopeViolation(joint.ligaments, joint_result.coordinates);
+      joint_result.quality.envelope_violation = joint.envelopeViolation(parent_pose, child_pose);
     }
     result.joints.push_back(joint_result);
   }

@@ -3,6 +3,9 @@
 #include <array>
 #include <limits>
 #include <string>
+#include <vector>
+
+#include "fluoro_tracker/constraints/ligament_bundle.h"
 
 namespace fluoro_tracker {
 namespace constraints {
@@ -28,6 +31,9 @@ struct LigamentSettings {
       {{-10.0, 150.0}, {-3.0, 3.0}, {-20.0, 20.0}, {-10.0, 30.0}, {}, {-5.0, 5.0}}};
   double stiffness_per_deg = 10.0;  // residual per degree outside the bounds
   double stiffness_per_mm = 10.0;   // residual per millimetre outside the bounds
+  // Ligaments between insertion points (none by default: where they insert depends on the
+  // bones or implants); they act with the coordinate springs, when enabled.
+  std::vector<LigamentBundle> bundles;
 
   static const std::array<const char*, 6>& coordinateNames();
   void validate() const;  // throws InputError naming the field

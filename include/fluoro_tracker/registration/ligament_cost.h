@@ -20,5 +20,15 @@ ceres::CostFunction* makeKneeLigamentCost(const constraints::LigamentSettings& s
                                           const geometry::Pose& child_frame,
                                           const Eigen::Vector3d& child_centre);
 
+// Ligament bundles (constraints::LigamentBundle) as a Ceres cost: one residual per bundle, from
+// its insertions on the two bones moved by their pose increments; automatic derivatives.
+// `parent_pose` and `child_pose`: the bones' mesh-frame poses in the fixed frame at the
+// linearisation. Returns nullptr for no bundles.
+ceres::CostFunction* makeLigamentBundleCost(const std::vector<constraints::LigamentBundle>& bundles,
+                                            const geometry::Pose& parent_pose,
+                                            const Eigen::Vector3d& parent_centre,
+                                            const geometry::Pose& child_pose,
+                                            const Eigen::Vector3d& child_centre);
+
 }  // namespace registration
 }  // namespace fluoro_tracker

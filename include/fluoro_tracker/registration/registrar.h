@@ -1,5 +1,6 @@
 #pragma once
 
+#include <algorithm>
 #include <map>
 #include <memory>
 #include <string>
@@ -220,6 +221,14 @@ struct JointModel {
                                           const geometry::Pose& child_pose) const {
     return kinematics::kneeCoordinates(parent_pose * parent_anatomical,
                                        child_pose * child_anatomical, side);
+  }
+  // How far the joint lies outside its ligaments: the largest of its coordinates' distance
+  // outside their bounds (deg or mm, envelopeViolation) and its bundles' stretch (mm).
+  double envelopeViolation(const geometry::Pose& parent_pose,
+                           const geometry::Pose& child_pose) const {
+    return std::max(
+        registration::envelopeViolation(ligaments, coordinates(parent_pose, child_pose)),
+        constraints::maxStretchMm(ligaments.bundles, parent_pose, child_pose));
   }
 };
 

@@ -90,6 +90,13 @@ TEST(TrialConfig, SaveThenLoadRoundTrip) {
   knee.side = kinematics::Side::kLeft;
   knee.ligaments.bounds[1] = {-4.0, 5.0};
   knee.ligaments.stiffness_per_mm = 3.5;
+  constraints::LigamentBundle mcl;
+  mcl.name = "mcl";
+  mcl.parent_insertion_m = Eigen::Vector3d(0.001, 0.002, -0.035);
+  mcl.child_insertion_m = Eigen::Vector3d(-0.002, -0.06, -0.03);
+  mcl.slack_length_m = 0.075;
+  mcl.stiffness_per_mm = 2.0;
+  knee.ligaments.bundles = {mcl};
   knee.contact.measure = constraints::ContactMeasure::kPenetrationDepth;
   knee.contact.weight = 7.5;
   knee.contact.loaded_weight = 3.0;
@@ -130,6 +137,61 @@ TEST(TrialConfig, SaveThenLoadRoundTrip) {
   EXPECT_DOUBLE_EQ(r.joints[0].ligaments.bounds[1].upper, 5.0);
   EXPECT_TRUE(std::isinf(r.joints[0].ligaments.bounds[4].upper));  // distraction free
   EXPECT_DOUBLE_EQ(r.joints[0].ligaments.stiffness_per_mm, 3.5);
+  ASSERT_EQ(r.joints[0].ligaments.bundles.size(), 1u);
+  const constraints::LigamentBundle& bundle = r.joints[0].ligaments.bundles[0];
+  EXPECT_EQ(bundle.name, "mcl");
+  EXPECT_TRUE(bundle.parent_insertion_m.isApprox(mcl.parent_insertion_m, 1e-12));
+  EXPECT_TRUE(bundle.child_insertion_m.isApprox(mcl.child_insertion_m, 1e-12));
+  EXPECT_NEAR(bundle.slack_length_m, 0.075, 1e-12);
+  EXPECT_DOUBLE_EQ(bundle.stiffness_per_mm, 2.0);
+}
+
+// Ligament bundles: insertion points in mm in each bone's mesh frame; a bad entry is named.
+TEST(TrialConfig, LigamentBundlesAreReadInMillimetresAndChecked) {
+  TempDir dir;
+  const std::string head =
+      "bones:\n  - {name: femur, mesh: f.stl}\n  - {name: tibia, mesh: t.stl}\n"
+      "joints:\n  - name: knee\n    parent: femur\n    child: tibia\n    ligaments:\n"
+      "      bundles:\n";
+  test_support::writeText(
+      dir.file("good.yaml"),
+      head +
+          "        - {name: lcl, parent_insertion_mm: [0, 5, 35], child_insertion_mm: "
+          "[-10, -60, 38], slack_length_mm: 70}\n");
+  const auto bundles = io::loadTrialConfig(dir.file("good.yaml")).joints[0].ligaments.bundles;
+  ASSERT_EQ(bundles.size(), 1u);
+  EXPECT_TRUE(bundles[0].parent_insertion_m.isApprox(Eigen::Vector3d(0.0, 0.005, 0.035)));
+  EXPECT_TRUE(bundles[0].child_insertion_m.isApprox(Eigen::Vector3d(-0.01, -0.06, 0.038)));
+  EXPECT_NEAR(bundles[0].slack_length_m, 0.07, 1e-12);
+  EXPECT_DOUBLE_EQ(bundles[0].stiffness_per_mm, constraints::LigamentBundle().stiffness_per_mm);
+  test_support::writeText(
+      dir.file("noslack.yaml"),
+      head +
+          "        - {name: lcl, parent_insertion_mm: [0, 5, 35], child_insertion_mm: "
+          "[-10, -60, 38]}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("noslack.yaml")),
+                    "ligament bundle 'lcl': slack length must be > 0");
+  test_support::writeText(
+      dir.file("point.yaml"),
+      head +
+          "        - {name: lcl, parent_insertion_mm: [0, 5], child_insertion_mm: "
+          "[-10, -60, 38], slack_length_mm: 70}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("point.yaml")),
+                    "bundles[0].parent_insertion_mm needs [x, y, z] in mm");
+  test_support::writeText(
+      dir.file("typo.yaml"),
+      head +
+          "        - {name: lcl, parent_insertion: [0, 5, 35], child_insertion_mm: "
+          "[-10, -60, 38], slack_length_mm: 70}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("typo.yaml")), "parent_insertion");
+  test_support::writeText(
+      dir.file("twice.yaml"),
+      head +
+          "        - {name: lcl, parent_insertion_mm: [0, 5, 35], child_insertion_mm: [-10, -60, "
+          "38], slack_length_mm: 70}\n"
+          "        - {name: lcl, parent_insertion_mm: [0, 5, 35], child_insertion_mm: [-10, -60, "
+          "38], slack_length_mm: 70}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("twice.yaml")), "two bundles are named 'lcl'");
 }
 
 TEST(TrialConfig, ContactSectionIsCheckedAndMissingMeansDisabled) {

@@ -235,6 +235,49 @@ TEST(Registrar, LigamentsPullAJointTowardItsEnvelope) {
   EXPECT_LT(with_springs, without - 1.0);
 }
 
+// A ligament bundle acts only when stretched. Here one runs across the joint along the beam
+// (from the femur's lateral side to the tibia's medial side; not an anatomical ligament, but
+// along the direction the single view sees least, so the image hardly resists it). Slack at the
+// image-only result, it changes nothing; 3 mm too short, it pulls the bones until it is nearly
+// slack, and the joint's envelope violation reports what stretch is left.
+TEST(Registrar, LigamentBundlesActOnlyWhenStretched) {
+  const Scene scene;
+  registration::RegistrationSettings settings;
+  settings.mirror_check.enabled = false;  // the bundle alone is under test
+  registration::JointModel knee = kneeJoint();
+  const std::vector<registration::ViewImage> views = {
+      {scene.frame.images[0], scene.simulator.views()[0].camera}};
+  const registration::Registrar without(scene.bones, settings, {knee});
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const auto reference = without.solve(views, truth);
+  ASSERT_EQ(reference.joints[0].quality.envelope_violation, 0.0);
+  constraints::LigamentBundle bundle;
+  bundle.name = "across";
+  bundle.parent_insertion_m = Eigen::Vector3d(0.0, 0.0, 0.04);
+  bundle.child_insertion_m = Eigen::Vector3d(0.0, -0.01, -0.04);
+  const double length = bundle.length(reference.poses[0], reference.poses[1]);
+
+  bundle.slack_length_m = length + 0.005;
+  knee.ligaments.bundles = {bundle};
+  const auto slack =
+      registration::Registrar(scene.bones, settings, {knee}).solve(views, reference.poses);
+  const auto plain = without.solve(views, reference.poses);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_LT((slack.poses[k].translation() - plain.poses[k].translation()).norm(), 1e-6);
+    EXPECT_LT(geometry::rotationAngleBetween(slack.poses[k].linear(), plain.poses[k].linear()),
+              1e-5);
+  }
+
+  bundle.slack_length_m = length - 0.003;
+  knee.ligaments.bundles = {bundle};
+  const auto pulled =
+      registration::Registrar(scene.bones, settings, {knee}).solve(views, reference.poses);
+  ASSERT_NEAR(bundle.stretchMm(reference.poses[0], reference.poses[1]), 3.0, 1e-9);
+  const double stretch = bundle.stretchMm(pulled.poses[0], pulled.poses[1]);
+  EXPECT_LT(stretch, 1.0);
+  EXPECT_GE(pulled.joints[0].quality.envelope_violation, stretch);
+}
+
 // A stage's image weights scale each bone's image terms: with the tibia's at 0 (and no joint to
 // move it), the tibia stays where it started while the femur is registered.
 TEST(Registrar, StageImageWeightsApplyPerBone) {
