@@ -239,6 +239,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "converged_translation_m",
                      "converged_rotation_rad",
                      "edge_offset_model",
+                     "parameterisation",
                      "edge_offset_prior_px",
                      "edge_offset_hold",
                      "edge_offset_tracking",
@@ -285,6 +286,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("converged_rotation_rad", &r.converged_rotation_rad);
   std::string edge_offset_model = registration::edgeOffsetModelName(r.edge_offset_model);
   section.read("edge_offset_model", &edge_offset_model);
+  std::string parameterisation = registration::parameterisationName(r.parameterisation);
+  section.read("parameterisation", &parameterisation);
   section.read("edge_offset_prior_px", &r.edge_offset_prior_px);
   section.read("edge_offset_hold", &r.edge_offset_hold);
   const YamlSection offset_tracking = section.child("edge_offset_tracking");
@@ -346,6 +349,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   edges.read("line_distance_band_px", &r.edges.line_distance_band_px);
   try {
     r.edge_offset_model = registration::edgeOffsetModelFromName(edge_offset_model);
+    r.parameterisation = registration::parameterisationFromName(parameterisation);
     r.validate();
   } catch (const InputError& e) {
     throw InputError(context + ": " + e.what());

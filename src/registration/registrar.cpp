@@ -18,6 +18,7 @@
 #include "fluoro_tracker/registration/edge_to_contour_cost.h"
 #include "fluoro_tracker/registration/ligament_cost.h"
 #include "fluoro_tracker/registration/mirror_ambiguity.h"
+#include "fluoro_tracker/registration/parent_relative_cost.h"
 #include "fluoro_tracker/registration/pose_increment.h"
 
 namespace fluoro_tracker {
@@ -210,7 +211,8 @@ class EdgeOffsetPriorCost : public ceres::SizedCostFunction<1, 1> {
 void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& summary,
                          std::vector<std::array<double, 6>>& increments,
                          const std::vector<Eigen::Vector3d>& centres,
-                         const std::vector<geometry::Pose>& poses, RegistrationResult* result) {
+                         const std::vector<geometry::Pose>& poses,
+                         const std::vector<int>& relative_parent, RegistrationResult* result) {
   const std::size_t bones = increments.size();
   result->covariances.assign(bones, Eigen::Matrix<double, 6, 6>::Zero());
   result->covariance_valid.assign(bones, false);
@@ -266,7 +268,26 @@ void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& 
     if (!problem->HasParameterBlock(block) || problem->IsParameterBlockConstant(block)) continue;
     const auto column = column_of.find(block);
     if (column == column_of.end()) continue;
-    const Eigen::Matrix<double, 6, 6> c = inverse.block<6, 6>(column->second, column->second);
+    Eigen::Matrix<double, 6, 6> c = inverse.block<6, 6>(column->second, column->second);
+    if (relative_parent[b] >= 0) {
+      // A parent-relative child: its absolute increment's covariance through the composition.
+      const std::size_t p = static_cast<std::size_t>(relative_parent[b]);
+      const auto parent_column = column_of.find(increments[p].data());
+      if (parent_column == column_of.end()) continue;
+      double absolute[6];
+      Eigen::Matrix<double, 6, 12, Eigen::RowMajor> g;
+      Eigen::Matrix<double, 6, 6, Eigen::RowMajor> d_parent;
+      Eigen::Matrix<double, 6, 6, Eigen::RowMajor> d_relative;
+      composeRelativeIncrement(increments[p].data(), block, centres[p], centres[b], absolute,
+                               d_parent.data(), d_relative.data());
+      g << d_parent, d_relative;
+      Eigen::Matrix<double, 12, 12> joint;
+      const int cp = parent_column->second;
+      const int cb = column->second;
+      joint << inverse.block<6, 6>(cp, cp), inverse.block<6, 6>(cp, cb),
+          inverse.block<6, 6>(cb, cp), inverse.block<6, 6>(cb, cb);
+      c = g * joint * g.transpose();
+    }
     const Eigen::Vector3d arm = poses[b].translation() - centres[b];
     Eigen::Matrix<double, 6, 6> to_ros = Eigen::Matrix<double, 6, 6>::Zero();
     to_ros.block<3, 3>(0, 0) = -skew(arm);                   // d origin / d w
@@ -358,6 +379,21 @@ void addCovarianceQuality(const Eigen::Matrix<double, 6, 6>& covariance, const g
 }
 
 }  // namespace
+
+RegistrationSettings::Parameterisation parameterisationFromName(const std::string& name) {
+  using P = RegistrationSettings::Parameterisation;
+  for (P p : {P::kAbsolute, P::kParentRelative}) {
+    if (parameterisationName(p) == name) return p;
+  }
+  throw InputError("registration: parameterisation '" + name +
+                   "' is not one of absolute, parent_relative");
+}
+
+std::string parameterisationName(RegistrationSettings::Parameterisation parameterisation) {
+  return parameterisation == RegistrationSettings::Parameterisation::kParentRelative
+             ? "parent_relative"
+             : "absolute";
+}
 
 RegistrationSettings::EdgeOffsetModel edgeOffsetModelFromName(const std::string& name) {
   using Model = RegistrationSettings::EdgeOffsetModel;
@@ -688,6 +724,30 @@ Registrar::Solution Registrar::solveUnfinished(
         problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
         ceres::Problem problem(problem_options);
         for (std::size_t b = 0; b < bones_.size(); ++b) {
+          if (!result.diverged[b]) centres[b] = result.poses[b] * centroids_[b];
+        }
+        const std::vector<int> relative_parent = relativeParents(result.diverged);
+        // Adds a cost over these blocks (`block_bones`: the bone whose increment each block is,
+        // or -1), a parent-relative bone's block taken relative to its parent.
+        const auto add_block = [&](ceres::CostFunction* cost, std::vector<double*> blocks,
+                                   std::vector<int> block_bones) {
+          for (std::size_t k = 0; k < block_bones.size(); ++k) {
+            const int b = block_bones[k];
+            if (b < 0 || relative_parent[b] < 0) continue;
+            const int p = relative_parent[b];
+            const auto found = std::find(blocks.begin(), blocks.end(), increments[p].data());
+            const int parent_block =
+                found == blocks.end() ? -1 : static_cast<int>(found - blocks.begin());
+            cost = new ParentRelativeCost(cost, static_cast<int>(k), parent_block, centres[p],
+                                          centres[b]);
+            if (parent_block < 0) {
+              blocks.push_back(increments[p].data());
+              block_bones.push_back(p);
+            }
+          }
+          problem.AddResidualBlock(cost, nullptr, blocks);
+        };
+        for (std::size_t b = 0; b < bones_.size(); ++b) {
           if (result.diverged[b]) continue;
           const geometry::Pose& pose = result.poses[b];
           const double image_weight = bones_[b].image_weight * stage.imageWeight(bones_[b].name);
@@ -715,10 +775,11 @@ Registrar::Solution Registrar::solveUnfinished(
             points_in_views += static_cast<int>(points.size());
             const std::size_t forward_count = points.size();
             double* offset = &offsets[b][v];
-            problem.AddResidualBlock(
+            const int bone = static_cast<int>(b);
+            add_block(
                 new ContourDistanceCost(&maps[v], std::move(points), std::move(offset_directions),
                                         centres[b], robust_scale, image_weight),
-                nullptr, increments[b].data(), offset);
+                {increments[b].data(), offset}, {bone, -1});
             // The offset is a fraction of a pixel: held, it is free only once the contour is
             // that close (see edge_offset_hold).
             const EdgeOffsetPrior prior = prior_of(b, v);
@@ -736,10 +797,9 @@ Registrar::Solution Registrar::solveUnfinished(
                   edgeContourPairs(maps[v], contour, pose, settings_.reverse_band_px * scale,
                                    forward_count, settings_.edge_offset_model);
               if (!pairs.empty()) {
-                problem.AddResidualBlock(
-                    new EdgeToContourCost(camera, std::move(pairs), centres[b], robust_scale,
-                                          settings_.reverse_term_weight * image_weight),
-                    nullptr, increments[b].data(), offset);
+                add_block(new EdgeToContourCost(camera, std::move(pairs), centres[b], robust_scale,
+                                                settings_.reverse_term_weight * image_weight),
+                          {increments[b].data(), offset}, {bone, -1});
               }
             }
           }
@@ -759,29 +819,28 @@ Registrar::Solution Registrar::solveUnfinished(
           }
           const geometry::Pose& parent_pose = result.poses[joint.parent];
           const geometry::Pose& child_pose = result.poses[joint.child];
+          const std::vector<int> joint_bones = {joint.parent, joint.child};
           if (joint.contact && with_contact) {
-            problem.AddResidualBlock(
-                new ContactCost(joint.contact.get(), parent_pose, centres[joint.parent], child_pose,
-                                centres[joint.child]),
-                nullptr, parent_increment, child_increment);
+            add_block(new ContactCost(joint.contact.get(), parent_pose, centres[joint.parent],
+                                      child_pose, centres[joint.child]),
+                      {parent_increment, child_increment}, joint_bones);
           }
           const std::size_t j = static_cast<std::size_t>(&joint - joints_.data());
           if (joint.loaded_contact && with_contact && j < loaded.size() && loaded[j]) {
-            problem.AddResidualBlock(
-                new ContactCost(joint.loaded_contact.get(), parent_pose, centres[joint.parent],
-                                child_pose, centres[joint.child]),
-                nullptr, parent_increment, child_increment);
+            add_block(new ContactCost(joint.loaded_contact.get(), parent_pose,
+                                      centres[joint.parent], child_pose, centres[joint.child]),
+                      {parent_increment, child_increment}, joint_bones);
           }
           if (joint.ligaments.enabled && stage.ligaments) {
-            problem.AddResidualBlock(
+            add_block(
                 makeKneeLigamentCost(joint.ligaments, joint.side,
                                      parent_pose * joint.parent_anatomical, centres[joint.parent],
                                      child_pose * joint.child_anatomical, centres[joint.child]),
-                nullptr, parent_increment, child_increment);
+                {parent_increment, child_increment}, joint_bones);
             if (ceres::CostFunction* bundles = makeLigamentBundleCost(
                     joint.ligaments.bundles, parent_pose, centres[joint.parent], child_pose,
                     centres[joint.child])) {
-              problem.AddResidualBlock(bundles, nullptr, parent_increment, child_increment);
+              add_block(bundles, {parent_increment, child_increment}, joint_bones);
             }
           }
         }
@@ -808,7 +867,12 @@ Registrar::Solution Registrar::solveUnfinished(
         double max_rotation = 0.0;
         for (std::size_t b = 0; b < bones_.size(); ++b) {
           if (!problem.HasParameterBlock(increments[b].data())) continue;
-          const auto& inc = increments[b];
+          std::array<double, 6> inc = increments[b];
+          if (relative_parent[b] >= 0) {
+            const int p = relative_parent[b];
+            composeRelativeIncrement(increments[p].data(), increments[b].data(), centres[p],
+                                     centres[b], inc.data());
+          }
           const geometry::Pose moved = applyIncrement(result.poses[b], centres[b], inc.data());
           const bool plausible =
               (moved.translation() - initial_poses[b].translation()).norm() <=
@@ -830,7 +894,8 @@ Registrar::Solution Registrar::solveUnfinished(
         const bool last_solve = finest && stage_index + 1 == schedule.size() &&
                                 (converged || outer + 1 == outer_iterations);
         if (settings_.compute_covariance && last_solve) {
-          estimateCovariances(&problem, summary, increments, centres, linearised, &result);
+          estimateCovariances(&problem, summary, increments, centres, linearised, relative_parent,
+                              &result);
         }
         if (converged) break;
       }
@@ -841,6 +906,22 @@ Registrar::Solution Registrar::solveUnfinished(
     for (double& o : per_view) o /= previous_scale;
   }
   return Solution{std::move(result), std::move(finest_model_points), std::move(maps)};
+}
+
+std::vector<int> Registrar::relativeParents(const std::vector<bool>& diverged) const {
+  std::vector<int> parent(bones_.size(), -1);
+  if (settings_.parameterisation != RegistrationSettings::Parameterisation::kParentRelative) {
+    return parent;
+  }
+  std::vector<bool> carries(bones_.size(), false);  // the parent of a relative child
+  for (const auto& joint : joints_) {
+    const auto p = static_cast<std::size_t>(joint.parent);
+    const auto c = static_cast<std::size_t>(joint.child);
+    if (diverged[p] || diverged[c] || parent[c] >= 0 || carries[c] || parent[p] >= 0) continue;
+    parent[c] = joint.parent;
+    carries[p] = true;
+  }
+  return parent;
 }
 
 void Registrar::finish(const std::vector<ViewImage>& views, Solution* solution) const {

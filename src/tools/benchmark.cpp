@@ -637,6 +637,7 @@ int main(int argc, char** argv) {
   std::string depth_retry_shifts;
   std::string conditions_option = "image,contact";
   std::string edge_offset_model = "uniform";
+  std::string parameterisation = "absolute";
   std::string protocol = "standard";
   std::string trial_set = "good";
   constraints::LigamentSettings ligaments;
@@ -718,6 +719,9 @@ int main(int argc, char** argv) {
       "weight of the edge-to-contour (reverse) term; 0: forward term only")(
       "edge-offset-model", po::value(&edge_offset_model)->default_value(edge_offset_model),
       "uniform (one offset per bone and view) or none")(
+      "parameterisation", po::value(&parameterisation)->default_value(parameterisation),
+      "absolute, or parent_relative (the tibia's increment relative to the femur's, the "
+      "dissertation's Dataset B)")(
       "edge-offset-prior-px",
       po::value(&settings.edge_offset_prior_px)->default_value(settings.edge_offset_prior_px),
       "prior sigma of each bone's edge offset, pixels")(
@@ -807,6 +811,7 @@ int main(int argc, char** argv) {
     }
     contact.measure = constraints::contactMeasureFromName(contact_measure);
     settings.edge_offset_model = registration::edgeOffsetModelFromName(edge_offset_model);
+    settings.parameterisation = registration::parameterisationFromName(parameterisation);
     contact.validate();
     ligaments.stiffness_per_mm = ligaments.stiffness_per_deg;
     ligaments.validate();

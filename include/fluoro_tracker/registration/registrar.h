@@ -145,6 +145,12 @@ struct RegistrationSettings {
   // contour normals, with a zero-mean prior of edge_offset_prior_px; kNone compares the
   // geometric silhouette as it is. Measured (benchmark, 100 frames): out-of-plane RMS 4.8 mm
   // with kNone, 2.0 mm with kUniform.
+  // A joint's child moves by its own increment (kAbsolute) or by its increment relative to its
+  // parent, so that a step of the parent carries it along (kParentRelative; the dissertation's
+  // Dataset B; registration::ParentRelativeCost). One level: a child whose parent is itself a
+  // relative child stays absolute.
+  enum class Parameterisation { kAbsolute, kParentRelative };
+  Parameterisation parameterisation = Parameterisation::kAbsolute;
   enum class EdgeOffsetModel { kNone, kUniform };
   EdgeOffsetModel edge_offset_model = EdgeOffsetModel::kUniform;
   double edge_offset_prior_px = 0.5;  // full-resolution pixels
@@ -184,6 +190,9 @@ struct RegistrationSettings {
 
 // YAML / command-line names: none, uniform. Throws InputError for others.
 RegistrationSettings::EdgeOffsetModel edgeOffsetModelFromName(const std::string& name);
+// "absolute" or "parent_relative"; throws InputError naming the known ones.
+RegistrationSettings::Parameterisation parameterisationFromName(const std::string& name);
+std::string parameterisationName(RegistrationSettings::Parameterisation parameterisation);
 std::string edgeOffsetModelName(RegistrationSettings::EdgeOffsetModel model);
 
 // A frame as the registrar sees it: one image per view, each with its camera (whose
@@ -329,6 +338,9 @@ class Registrar {
                            const std::vector<imaging::EdgeMap>* finest_maps) const;
   // Adds each joint's coordinates and figures and each bone's image quality.
   void finish(const std::vector<ViewImage>& views, Solution* solution) const;
+  // Per bone, the parent its increment is relative to (settings' parameterisation), else -1:
+  // each joint's child whose parent is not itself relative and which carries no relative child.
+  std::vector<int> relativeParents(const std::vector<bool>& diverged) const;
 
   std::vector<BoneModel> bones_;
   RegistrationSettings settings_;

@@ -277,6 +277,7 @@ registration:
   coarse_outer_iterations: 3
   tracking_scales: [0.5, 1.0]
   robust_scale_px: 3.0
+  parameterisation: parent_relative
   edge_offset_hold: false
   edge_offset_tracking: {enabled: false, frame_sd_px: 0.3, drift_px: 0.05}
   edges: {clahe: true, canny_high: 60}
@@ -288,6 +289,8 @@ registration:
             relative_inlier_min_frames: 5}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
+  EXPECT_EQ(c.registration.parameterisation,
+            registration::RegistrationSettings::Parameterisation::kParentRelative);
   EXPECT_FALSE(c.registration.mirror_check.enabled);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.cost_tolerance, 0.2);
   EXPECT_EQ(c.registration.mirror_check.outer_iterations, 3);
@@ -343,6 +346,8 @@ registration:
   expectRegistrationRejected("{stages: [{outer: 2}]}", "unknown key 'outer'");
   expectRegistrationRejected("{outer_iteration: 3}", "unknown key 'outer_iteration'");
   expectRegistrationRejected("{scales: [2.0]}", "scales must be in (0, 1]");
+  expectRegistrationRejected("{parameterisation: relative}",
+                             "parameterisation 'relative' is not one of absolute, parent_relative");
   expectRegistrationRejected("{tracking_scales: []}", "tracking_scales must not be empty");
   expectRegistrationRejected("{mirror_check: {cost_tolerance: -0.1}}", "mirror_check needs");
   expectRegistrationRejected("{mirror_check: {min_neutral_gain: -0.1}}", "min_neutral_gain >= 0");
@@ -379,6 +384,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.registration.edges.clahe, d.edges.clahe);
   EXPECT_DOUBLE_EQ(c.registration.edges.line_distance_band_px, d.edges.line_distance_band_px);
   EXPECT_EQ(c.registration.edge_offset_model, d.edge_offset_model);
+  EXPECT_EQ(c.registration.parameterisation, d.parameterisation);
   EXPECT_DOUBLE_EQ(c.registration.edge_offset_prior_px, d.edge_offset_prior_px);
   EXPECT_EQ(c.registration.edge_offset_hold, d.edge_offset_hold);
   EXPECT_EQ(c.registration.contact_from_outer_iteration, d.contact_from_outer_iteration);
