@@ -751,7 +751,6 @@ Registrar::Solution Registrar::solveUnfinished(
           if (result.diverged[b]) continue;
           const geometry::Pose& pose = result.poses[b];
           const double image_weight = bones_[b].image_weight * stage.imageWeight(bones_[b].name);
-          centres[b] = pose * centroids_[b];
           int points_in_views = 0;
           for (std::size_t v = 0; v < views.size(); ++v) {
             const geometry::XrayCamera& camera = maps[v].camera();
@@ -868,8 +867,10 @@ Registrar::Solution Registrar::solveUnfinished(
         for (std::size_t b = 0; b < bones_.size(); ++b) {
           if (!problem.HasParameterBlock(increments[b].data())) continue;
           std::array<double, 6> inc = increments[b];
-          if (relative_parent[b] >= 0) {
-            const int p = relative_parent[b];
+          // A relative child moves with its parent, unless the parent's step was just rejected
+          // (it is kept where it was; the child then takes its own step alone).
+          const int p = relative_parent[b];
+          if (p >= 0 && !result.diverged[p]) {
             composeRelativeIncrement(increments[p].data(), increments[b].data(), centres[p],
                                      centres[b], inc.data());
           }
