@@ -9,6 +9,9 @@
 #include <ros/ros.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <rosgraph_msgs/Log.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
@@ -281,6 +284,64 @@ TEST(TrackerNode, ServicesAnswerBadRequestsAndWork) {
     tf_messages += m.getTopic() == "/tf" ? 1 : 0;
   }
   EXPECT_EQ(tf_messages, 90);
+}
+
+// A frame stamped earlier than frames already tracked (out-of-order stamps) is still tracked,
+// and the node says so on /rosout, naming the problem. Single view (`image_topic` given).
+TEST(TrackerNode, TracksAnOutOfOrderFrameAndSaysSo) {
+  const std::string image_topic = param("image_topic");
+  if (image_topic.empty()) GTEST_SKIP() << "run with a single-view node";
+  const std::string info_topic = image_topic.substr(0, image_topic.rfind('/') + 1) + "camera_info";
+  // The trial's first frame: older than every frame the node has tracked by now.
+  rosbag::Bag bag(param("bag"));
+  sensor_msgs::Image::ConstPtr image;
+  sensor_msgs::CameraInfo::ConstPtr info;
+  for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
+    if (!image) image = m.instantiate<sensor_msgs::Image>();
+    if (!info) info = m.instantiate<sensor_msgs::CameraInfo>();
+    if (image && info) break;
+  }
+  ASSERT_TRUE(image && info);
+  ASSERT_EQ(image->header.stamp, info->header.stamp);
+  ros::NodeHandle nh;
+  std::mutex mutex;
+  bool tracked = false;
+  bool warned = false;
+  auto status_sub = nh.subscribe<TrackingStatus>(
+      "/tracker_node/status", 10, [&](const TrackingStatus::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        tracked = tracked || m->header.stamp == image->header.stamp;
+      });
+  auto rosout_sub =
+      nh.subscribe<rosgraph_msgs::Log>("/rosout", 100, [&](const rosgraph_msgs::Log::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex);
+        warned = warned || m->msg.find("out-of-order stamps") != std::string::npos;
+      });
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  ros::Publisher image_pub = nh.advertise<sensor_msgs::Image>(image_topic, 1);
+  ros::Publisher info_pub = nh.advertise<sensor_msgs::CameraInfo>(info_topic, 1);
+  const ros::WallTime connect_deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+  while ((image_pub.getNumSubscribers() == 0 || info_pub.getNumSubscribers() == 0 ||
+          status_sub.getNumPublishers() == 0) &&
+         ros::WallTime::now() < connect_deadline) {
+    ros::WallDuration(0.1).sleep();
+  }
+  ASSERT_GT(image_pub.getNumSubscribers(), 0u) << "the node does not listen on " << image_topic;
+  ros::WallDuration(0.5).sleep();  // let the rosout subscription connect too
+  info_pub.publish(info);
+  image_pub.publish(image);
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(20.0);
+  while (ros::WallTime::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (tracked && warned) break;
+    }
+    ros::WallDuration(0.1).sleep();
+  }
+  std::lock_guard<std::mutex> lock(mutex);
+  EXPECT_TRUE(tracked) << "no status for the out-of-order frame";
+  EXPECT_TRUE(warned) << "no out-of-order warning on /rosout";
 }
 
 int main(int argc, char** argv) {
