@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <opencv2/imgproc.hpp>
 
@@ -167,14 +168,13 @@ EdgeMap::EdgeMap(const cv::Mat& image, const geometry::XrayCamera& camera, const
     low = s.auto_low_ratio * high;
   }
   cv::Canny(smooth, edges_, low, high, 3, true);
-  computeSignedDistance(gx, gy, magnitude, s.line_distance_band_px);
+  findNearestEdges(gx, gy, magnitude, s.line_distance_band_px);
 }
 
-void EdgeMap::computeSignedDistance(const cv::Mat& gx, const cv::Mat& gy, const cv::Mat& magnitude,
-                                    double band) {
+void EdgeMap::findNearestEdges(const cv::Mat& gx, const cv::Mat& gy, const cv::Mat& magnitude,
+                               double band) {
   // Sub-pixel edge points and unit normals (toward the brighter side) at every edge pixel.
   edge_points_ = cv::Mat(edges_.size(), CV_32FC2, cv::Scalar(0, 0));
-  std::vector<cv::Point> edge_pixels;
   std::vector<Eigen::Vector2d> points;
   std::vector<Eigen::Vector2d> normals;
   for (int v = 0; v < edges_.rows; ++v) {
@@ -193,47 +193,127 @@ void EdgeMap::computeSignedDistance(const cv::Mat& gx, const cv::Mat& gy, const 
       const Eigen::Vector2d point = Eigen::Vector2d(u, v) + offset * n;
       edge_points_.at<cv::Vec2f>(v, u) =
           cv::Vec2f(static_cast<float>(point.x()), static_cast<float>(point.y()));
-      edge_pixels.emplace_back(u, v);
       points.push_back(point);
       normals.push_back(n);
     }
   }
-  distance_ = cv::Mat(edges_.size(), CV_32F, cv::Scalar(max_distance_));
-  if (edge_pixels.empty()) return;
-  // Nearest edge pixel of every pixel: a labelled distance transform.
-  cv::Mat labels;
-  cv::Mat approximate;
-  cv::distanceTransform(edges_ == 0, approximate, labels, cv::DIST_L2, cv::DIST_MASK_5,
-                        cv::DIST_LABEL_PIXEL);
-  std::vector<int> edge_of_label(static_cast<std::size_t>(edges_.total()) + 1, -1);
-  for (std::size_t k = 0; k < edge_pixels.size(); ++k) {
-    edge_of_label[labels.at<int>(edge_pixels[k])] = static_cast<int>(k);
+  if (points.empty()) {
+    distance_ = cv::Mat(edges_.size(), CV_32F, cv::Scalar(max_distance_));
+    return;
   }
-  const double max_squared = max_distance_ * max_distance_;
-  for (int v = 0; v < edges_.rows; ++v) {
-    const int* label = labels.ptr<int>(v);
-    float* out = distance_.ptr<float>(v);
-    for (int u = 0; u < edges_.cols; ++u) {
-      const int k = edge_of_label[label[u]];
-      if (k < 0) continue;
-      const Eigen::Vector2d offset = Eigen::Vector2d(u, v) - points[k];
-      const double along_normal = normals[k].dot(offset);
-      const double squared = offset.squaredNorm();
-      // Tangent-line distance near the edge, point distance far from it, blended between.
-      // The cases spare the square roots, which dominate this loop, where the blend is 0 or 1.
-      double value = max_distance_;
-      if (squared <= band * band) {
-        value = std::abs(along_normal);
-      } else if (squared < max_squared) {
-        const double to_point = std::sqrt(squared);
-        const double w = std::min((to_point - band) / band, 1.0);
-        value = w == 1.0 ? to_point
-                         : std::sqrt(along_normal * along_normal +
-                                     w * (squared - along_normal * along_normal));
+  distance_ = cv::Mat(edges_.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  // The points bucketed by grid cell (a counting sort), so that a pixel's nearest is found by
+  // searching the cells around it ring by ring.
+  auto nearest = std::make_shared<NearestEdges>();
+  nearest->band = band;
+  nearest->cols = (edges_.cols + kCellPx - 1) / kCellPx;
+  nearest->rows = (edges_.rows + kCellPx - 1) / kCellPx;
+  const auto cell_of = [&](const Eigen::Vector2d& p) {
+    const int cu = std::clamp(static_cast<int>(std::floor(p.x() / kCellPx)), 0, nearest->cols - 1);
+    const int cv = std::clamp(static_cast<int>(std::floor(p.y() / kCellPx)), 0, nearest->rows - 1);
+    return cv * nearest->cols + cu;
+  };
+  nearest->cell_begin.assign(static_cast<std::size_t>(nearest->cols * nearest->rows) + 1, 0);
+  for (const auto& p : points) ++nearest->cell_begin[cell_of(p) + 1];
+  for (std::size_t c = 1; c < nearest->cell_begin.size(); ++c) {
+    nearest->cell_begin[c] += nearest->cell_begin[c - 1];
+  }
+  std::vector<int> next(nearest->cell_begin.begin(), nearest->cell_begin.end() - 1);
+  nearest->points.resize(points.size());
+  nearest->normals.resize(points.size());
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const int slot = next[cell_of(points[k])]++;
+    nearest->points[slot] = points[k];
+    nearest->normals[slot] = normals[k];
+  }
+  nearest_ = std::move(nearest);
+}
+
+int EdgeMap::NearestEdges::find(const Eigen::Vector2d& pixel, double max_distance) const {
+  const int cu = std::clamp(static_cast<int>(pixel.x()) / kCellPx, 0, cols - 1);
+  const int cv = std::clamp(static_cast<int>(pixel.y()) / kCellPx, 0, rows - 1);
+  const int max_ring = std::max(std::max(cu, cols - 1 - cu), std::max(cv, rows - 1 - cv));
+  double best = std::numeric_limits<double>::infinity();
+  int best_index = -1;
+  const auto search_cell = [&](int u, int v) {
+    if (u < 0 || v < 0 || u >= cols || v >= rows) return;
+    const int c = v * cols + u;
+    for (int k = cell_begin[c]; k < cell_begin[c + 1]; ++k) {
+      const double squared = (points[k] - pixel).squaredNorm();
+      if (squared < best) {
+        best = squared;
+        best_index = k;
       }
-      out[u] = static_cast<float>(along_normal < 0.0 ? -value : value);
+    }
+  };
+  for (int ring = 0; ring <= max_ring; ++ring) {
+    if (ring == 0) {
+      search_cell(cu, cv);
+    } else {
+      for (int u = cu - ring; u <= cu + ring; ++u) {
+        search_cell(u, cv - ring);
+        search_cell(u, cv + ring);
+      }
+      for (int v = cv - ring + 1; v <= cv + ring - 1; ++v) {
+        search_cell(cu - ring, v);
+        search_cell(cu + ring, v);
+      }
+    }
+    // Every point in a cell of a later ring is at least ring x kCellPx away.
+    const double reach = static_cast<double>(ring) * kCellPx;
+    if (best <= reach * reach || reach >= max_distance) break;
+  }
+  return best_index;
+}
+
+float EdgeMap::computeDistance(int u, int v) const {
+  // distance_ shares its pixels with copies of this map; each is written once, always alike.
+  float& out = const_cast<cv::Mat&>(distance_).at<float>(v, u);
+  const NearestEdges& nearest = *nearest_;
+  const Eigen::Vector2d pixel(u, v);
+  // Unbounded search: the sign of a pixel far inside a bright region comes from its nearest
+  // edge however far, so that the truncated distance has no jump from -max to +max.
+  const int k = nearest.find(pixel, std::numeric_limits<double>::infinity());
+  const Eigen::Vector2d offset = pixel - nearest.points[k];
+  const double along_normal = nearest.normals[k].dot(offset);
+  const double squared = offset.squaredNorm();
+  const double band = nearest.band;
+  // Tangent-line distance near the edge, point distance far from it, blended between.
+  double value = max_distance_;
+  if (squared <= band * band) {
+    value = std::abs(along_normal);
+  } else if (squared < max_distance_ * max_distance_) {
+    const double to_point = std::sqrt(squared);
+    const double w = std::min((to_point - band) / band, 1.0);
+    value =
+        w == 1.0
+            ? to_point
+            : std::sqrt(along_normal * along_normal + w * (squared - along_normal * along_normal));
+  }
+  out = static_cast<float>(along_normal < 0.0 ? -value : value);
+  return out;
+}
+
+cv::Mat EdgeMap::unsignedDistance(double truncation_px) const {
+  cv::Mat result(distance_.size(), CV_32F, cv::Scalar(truncation_px));
+  if (!nearest_) return result;
+  const double limit = std::min(truncation_px, max_distance_);
+  for (int v = 0; v < result.rows; ++v) {
+    float* row = result.ptr<float>(v);
+    for (int u = 0; u < result.cols; ++u) {
+      const float known = distance_.at<float>(v, u);
+      if (!std::isnan(known)) {
+        row[u] = static_cast<float>(std::min<double>(std::abs(known), truncation_px));
+        continue;
+      }
+      // Farther than the truncation from every edge needs no exact nearest: a bounded search.
+      const Eigen::Vector2d pixel(u, v);
+      const int k = nearest_->find(pixel, limit);
+      if (k < 0 || (nearest_->points[k] - pixel).squaredNorm() >= limit * limit) continue;
+      row[u] = static_cast<float>(std::min<double>(std::abs(computeDistance(u, v)), truncation_px));
     }
   }
+  return result;
 }
 
 bool EdgeMap::sample(double u, double v, double* distance, double* du, double* dv) const {
@@ -252,10 +332,13 @@ bool EdgeMap::sample(double u, double v, double* distance, double* du, double* d
   // distance has its V-shaped minimum).
   const float* r0 = distance_.ptr<float>(v0);
   const float* r1 = distance_.ptr<float>(v0 + 1);
-  const double f00 = r0[u0];
-  const double f10 = r0[u0 + 1];
-  const double f01 = r1[u0];
-  const double f11 = r1[u0 + 1];
+  const auto at = [&](const float* row, int uu, int vv) -> double {
+    return std::isnan(row[uu]) ? computeDistance(uu, vv) : row[uu];
+  };
+  const double f00 = at(r0, u0, v0);
+  const double f10 = at(r0, u0 + 1, v0);
+  const double f01 = at(r1, u0, v0 + 1);
+  const double f11 = at(r1, u0 + 1, v0 + 1);
   *distance = (1 - b) * ((1 - a) * f00 + a * f10) + b * ((1 - a) * f01 + a * f11);
   *du = (1 - b) * (f10 - f00) + b * (f11 - f01);
   *dv = (1 - a) * (f01 - f00) + a * (f11 - f10);

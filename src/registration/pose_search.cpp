@@ -100,6 +100,9 @@ std::vector<geometry::Pose> edgeMatchStarts(const imaging::SilhouetteLibrary& li
   std::sort(largest.begin(), largest.end(),
             [](const auto* a, const auto* b) { return a->area_px > b->area_px; });
   largest.resize(std::min<std::size_t>(largest.size(), settings.edge_match_regions));
+  // Chamfer distances are truncated at matchEdges' default, so that no larger one is needed.
+  constexpr double kTruncationPx = 3.0;
+  const cv::Mat edge_distance = coarse.unsignedDistance(kTruncationPx);
   std::vector<geometry::Pose> poses;
   for (const imaging::ImplantBlob* blob : largest) {
     const double to_map = coarse.scale() / blob->scale;
@@ -113,8 +116,8 @@ std::vector<geometry::Pose> edgeMatchStarts(const imaging::SilhouetteLibrary& li
     const double step =
         std::max(settings.edge_position_step_px, std::max(box.width, box.height) / 30.0);
     for (const imaging::EdgeMatch& match :
-         library.matchEdges(coarse.distance(), box, px_per_m, settings.edge_matches_per_bone,
-                            settings.edge_roll_step_deg, step)) {
+         library.matchEdges(edge_distance, box, px_per_m, settings.edge_matches_per_bone,
+                            settings.edge_roll_step_deg, step, kTruncationPx)) {
       poses.push_back(library.cameraFromMesh(match, camera));
     }
   }

@@ -1,5 +1,8 @@
 #pragma once
 
+#include <memory>
+#include <vector>
+
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
@@ -46,6 +49,12 @@ struct EdgeMapSettings {
 // millimetres along the beam; a signed distance is also linear across the edge, so bilinear
 // sampling keeps its zero where the edge is and the residual is smooth through it.
 // Pixel coordinates are those of camera(), the view's camera cropped to the region and scaled.
+//
+// The signed distance of a pixel is worked out when it is first sampled, from the nearest
+// sub-pixel edge point: a registration samples a band around its contours, 2-3 % of the region
+// (the whole region by a labelled distance transform was 13 % of an image-only registration's
+// instructions). So an EdgeMap, and its copies, which share the pixels worked out, must not be
+// used by two threads at once.
 class EdgeMap {
  public:
   // `image`: the full frame (8- or 16-bit grey). `roi`: region of the full frame (clipped to
@@ -55,9 +64,10 @@ class EdgeMap {
           cv::Rect roi = cv::Rect(), double scale = 1.0);
 
   const geometry::XrayCamera& camera() const { return camera_; }
-  const cv::Mat& edges() const { return edges_; }        // CV_8U, 255 on edges
-  const cv::Mat& distance() const { return distance_; }  // CV_32F signed, pixels (this scale)
-  const cv::Mat& grey() const { return grey_; }          // CV_8U windowed region
+  const cv::Mat& edges() const { return edges_; }  // CV_8U, 255 on edges
+  // |signed distance| at every pixel, truncated at `truncation_px` (chamfer matching), CV_32F.
+  cv::Mat unsignedDistance(double truncation_px) const;
+  const cv::Mat& grey() const { return grey_; }  // CV_8U windowed region
   double scale() const { return scale_; }
   cv::Rect roi() const { return roi_; }
 
@@ -73,8 +83,27 @@ class EdgeMap {
   }
 
  private:
-  void computeSignedDistance(const cv::Mat& gx, const cv::Mat& gy, const cv::Mat& magnitude,
-                             double band);
+  static constexpr int kCellPx = 4;  // of the grid the edge points are bucketed in
+
+  // What the signed distance of any pixel is worked out from: the sub-pixel edge points
+  // bucketed by grid cell, searched ring by ring around the pixel.
+  struct NearestEdges {
+    int cols = 0;                          // grid cells across
+    int rows = 0;                          // ... and down
+    std::vector<int> cell_begin;           // cell c's points: [cell_begin[c], cell_begin[c + 1])
+    std::vector<Eigen::Vector2d> points;   // sub-pixel edge points, by cell
+    std::vector<Eigen::Vector2d> normals;  // unit, toward the brighter side
+    double band = 0.0;                     // line_distance_band_px
+
+    // Index of the point nearest `pixel`; -1 when none lies within max_distance (some farther
+    // ones may be returned).
+    int find(const Eigen::Vector2d& pixel, double max_distance) const;
+  };
+
+  void findNearestEdges(const cv::Mat& gx, const cv::Mat& gy, const cv::Mat& magnitude,
+                        double band);
+  // Works out the signed distance at pixel (u, v) and keeps it in distance_.
+  float computeDistance(int u, int v) const;
 
   geometry::XrayCamera camera_;
   cv::Rect roi_;
@@ -82,7 +111,8 @@ class EdgeMap {
   double max_distance_ = 0.0;
   cv::Mat grey_;
   cv::Mat edges_;
-  cv::Mat distance_;
+  cv::Mat distance_;                             // CV_32F; NaN where not yet worked out
+  std::shared_ptr<const NearestEdges> nearest_;  // null: no edges (distance_ is all max)
   cv::Mat edge_points_;  // CV_32FC2: sub-pixel edge position at each edge pixel
 };
 

@@ -68,7 +68,7 @@ class SilhouetteLibrary {
   // every position_step_px inside `search`, scored by the mean distance of the outline's
   // points to the nearest edge, each truncated at truncation_px (so that occluded or merged
   // parts of the outline cost a bounded amount). `edge_distance`: CV_32F distances to the
-  // nearest edge in pixels, signed or not (e.g. EdgeMap::distance(); the magnitude counts).
+  // nearest edge in pixels, signed or not (e.g. EdgeMap::unsignedDistance; the magnitude counts).
   // Returns the `count` best placements, no two with orientations closer than
   // min_separation_deg and origins closer than min_separation_px. Unlike region matching it
   // needs no region of the implant alone: a bone whose silhouette merges with its neighbour's

@@ -1,5 +1,7 @@
 #include "fluoro_tracker/imaging/edge_map.h"
 
+#include <limits>
+
 #include <opencv2/imgproc.hpp>
 
 #include "../test_support.h"
@@ -92,6 +94,61 @@ TEST(EdgeMap, RegionAndScaleKeepPixelsConsistentWithTheCamera) {
   EXPECT_LE(std::abs(d), 0.6);  // half resolution
   EXPECT_FALSE(map.sample(-5.0, 10.0, &d, &du, &dv));
   EXPECT_EQ(d, imaging::EdgeMapSettings().max_distance_px);
+}
+
+// The distance is worked out per pixel on first use from a grid of edge points; it must be the
+// distance to the nearest sub-pixel edge point however far (past the line band), in a map and
+// in its copies (which share the pixels worked out), and the dense truncated map must agree.
+TEST(EdgeMap, DistanceIsToTheNearestEdgePointFoundByBruteForce) {
+  // Two discs' worth of edges: a ring, and a square whose corners give nearest points that
+  // jump between edges.
+  cv::Mat image = disc(true);
+  cv::rectangle(image, cv::Rect(150, 20, 30, 30), cv::Scalar(120), cv::FILLED);
+  const imaging::EdgeMapSettings settings;
+  const EdgeMap map(image, kCamera, settings);
+  std::vector<Eigen::Vector2d> points;
+  for (int v = 0; v < map.edges().rows; ++v) {
+    for (int u = 0; u < map.edges().cols; ++u) {
+      if (map.edges().at<std::uint8_t>(v, u) != 0) points.push_back(map.edgePoint(u, v));
+    }
+  }
+  ASSERT_GT(points.size(), 100u);
+  const EdgeMap copy = map;  // sampled first below, then the original reads what it kept
+  int checked = 0;
+  for (int v = 0; v < map.edges().rows; v += 3) {
+    for (int u = 0; u < map.edges().cols; u += 3) {
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const auto& p : points) nearest = std::min(nearest, (p - Eigen::Vector2d(u, v)).norm());
+      double d = 0.0;
+      double du = 0.0;
+      double dv = 0.0;
+      ASSERT_TRUE(copy.sample(u, v, &d, &du, &dv));
+      double again = 0.0;
+      ASSERT_TRUE(map.sample(u, v, &again, &du, &dv));
+      EXPECT_EQ(d, again);
+      const double band = settings.line_distance_band_px;
+      if (nearest >= 2.0 * band && nearest < settings.max_distance_px) {
+        EXPECT_NEAR(std::abs(d), nearest, 1e-4) << "pixel " << u << ", " << v;
+        ++checked;
+      } else if (nearest >= settings.max_distance_px) {
+        EXPECT_EQ(std::abs(d), settings.max_distance_px);
+      } else {
+        EXPECT_LE(std::abs(d), nearest + 1e-4);  // to the tangent line: never farther
+      }
+    }
+  }
+  EXPECT_GT(checked, 1000);
+  const EdgeMap fresh(image, kCamera, settings);
+  const cv::Mat truncated = fresh.unsignedDistance(3.0);
+  for (int v = 0; v < truncated.rows; v += 2) {
+    for (int u = 0; u < truncated.cols; u += 2) {
+      double d = 0.0;
+      double du = 0.0;
+      double dv = 0.0;
+      map.sample(u, v, &d, &du, &dv);
+      EXPECT_NEAR(truncated.at<float>(v, u), std::min(std::abs(d), 3.0), 1e-5);
+    }
+  }
 }
 
 TEST(EdgeMap, BadImagesNameTheProblem) {

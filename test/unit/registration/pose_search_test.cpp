@@ -80,7 +80,7 @@ TEST(SilhouetteLibrary, EdgeMatchingPlacesTheTrayOnItsOutline) {
                         60, 60);
   const double px_per_m = coarse.camera().fx() / truth.translation().z();
   const imaging::SilhouetteLibrary library(sim.implants().tibial_tray);
-  const auto matches = library.matchEdges(coarse.distance(), search, {px_per_m}, 6);
+  const auto matches = library.matchEdges(coarse.unsignedDistance(3.0), search, {px_per_m}, 6);
   ASSERT_FALSE(matches.empty());
   double best_angle = 180.0;
   for (const auto& match : matches) {
