@@ -64,18 +64,22 @@ std::vector<ContourPoint> SilhouetteModel::contour(const geometry::XrayCamera& c
   const geometry::XrayCamera crop = camera.cropped(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
   const cv::Mat mask = Renderer::coverage(crop, mesh_, camera_from_mesh);
   const auto covered = [&](const Eigen::Vector2d& p) {
-    const int u = static_cast<int>(std::lround(p.x())) - x0;
-    const int v = static_cast<int>(std::lround(p.y())) - y0;
+    // Nearest pixel (floor of x + 0.5: std::lround's library call was a tenth of this loop).
+    const int u = static_cast<int>(std::floor(p.x() + 0.5)) - x0;
+    const int v = static_cast<int>(std::floor(p.y() + 0.5)) - y0;
     if (u < 0 || v < 0 || u >= mask.cols || v >= mask.rows) return false;
     return mask.at<std::uint8_t>(v, u) != 0;
   };
 
+  // Face normals turned into the camera frame once (each face borders three edges).
   const Eigen::Matrix3d rotation = camera_from_mesh.linear();
+  std::vector<Eigen::Vector3d> normals(face_normals_.size());
+  for (std::size_t f = 0; f < face_normals_.size(); ++f) normals[f] = rotation * face_normals_[f];
   for (const Edge& e : edges_) {
     // Facing relative to the ray from the source to a vertex of each face.
     const Eigen::Vector3d& ray = points[e.a];
-    const bool left_front = (rotation * face_normals_[e.face_left]).dot(ray) < 0.0;
-    const bool right_front = (rotation * face_normals_[e.face_right]).dot(ray) < 0.0;
+    const bool left_front = normals[e.face_left].dot(ray) < 0.0;
+    const bool right_front = normals[e.face_right].dot(ray) < 0.0;
     if (left_front == right_front) continue;
     const Eigen::Vector2d pa = pixels[e.a];
     const Eigen::Vector2d pb = pixels[e.b];
