@@ -48,21 +48,5 @@ IncrementedPoints::IncrementedPoints(const double* increment, const Eigen::Vecto
   left_jacobian_ = so3LeftJacobian(w);
 }
 
-Eigen::Vector3d IncrementedPoints::toCamera(const Eigen::Vector3d& q_fixed,
-                                            Eigen::Vector3d* rotated) const {
-  *rotated = rotation_ * (q_fixed - centre_);
-  return camera_rotation_ * (*rotated + centre_ + translation_) + camera_translation_;
-}
-
-void IncrementedPoints::chain(const Eigen::RowVector3d& d_camera_point,
-                              const Eigen::Vector3d& rotated, double* row) const {
-  const Eigen::RowVector3d d_fixed = d_camera_point * camera_rotation_;
-  const Eigen::RowVector3d d_w = -d_fixed * skew(rotated) * left_jacobian_;
-  for (int k = 0; k < 3; ++k) {
-    row[k] = d_w[k];
-    row[3 + k] = d_fixed[k];
-  }
-}
-
 }  // namespace registration
 }  // namespace fluoro_tracker

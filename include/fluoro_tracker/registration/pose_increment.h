@@ -32,11 +32,22 @@ class IncrementedPoints {
                     const geometry::Pose& camera_from_fixed);
 
   // The moved point in the optical frame; `rotated` receives R(w)·(q − c), which the
-  // Jacobian needs.
-  Eigen::Vector3d toCamera(const Eigen::Vector3d& q_fixed, Eigen::Vector3d* rotated) const;
+  // Jacobian needs. (Inline, as chain: both run once per residual in the hot loop.)
+  Eigen::Vector3d toCamera(const Eigen::Vector3d& q_fixed, Eigen::Vector3d* rotated) const {
+    *rotated = rotation_ * (q_fixed - centre_);
+    return camera_rotation_ * (*rotated + centre_ + translation_) + camera_translation_;
+  }
   // row[0..5] = d(value)/d(increment), given d(value)/d(camera point).
   void chain(const Eigen::RowVector3d& d_camera_point, const Eigen::Vector3d& rotated,
-             double* row) const;
+             double* row) const {
+    const Eigen::Vector3d d_fixed = camera_rotation_.transpose() * d_camera_point.transpose();
+    // d/dw of R(w)(q - c) is -skew(rotated) J_l(w), and a^T skew(r) = (a x r)^T.
+    const Eigen::Vector3d d_w = left_jacobian_.transpose() * rotated.cross(d_fixed);
+    for (int k = 0; k < 3; ++k) {
+      row[k] = d_w[k];
+      row[3 + k] = d_fixed[k];
+    }
+  }
 
  private:
   Eigen::Matrix3d rotation_;
