@@ -266,14 +266,14 @@ int EdgeMap::NearestEdges::find(const Eigen::Vector2d& pixel, double max_distanc
   return best_index;
 }
 
-float EdgeMap::computeDistance(int u, int v) const {
+float EdgeMap::computeDistance(int u, int v, int k) const {
   // distance_ shares its pixels with copies of this map; each is written once, always alike.
   float& out = const_cast<cv::Mat&>(distance_).at<float>(v, u);
   const NearestEdges& nearest = *nearest_;
   const Eigen::Vector2d pixel(u, v);
   // Unbounded search: the sign of a pixel far inside a bright region comes from its nearest
   // edge however far, so that the truncated distance has no jump from -max to +max.
-  const int k = nearest.find(pixel, std::numeric_limits<double>::infinity());
+  if (k < 0) k = nearest.find(pixel, std::numeric_limits<double>::infinity());
   const Eigen::Vector2d offset = pixel - nearest.points[k];
   const double along_normal = nearest.normals[k].dot(offset);
   const double squared = offset.squaredNorm();
@@ -295,9 +295,12 @@ float EdgeMap::computeDistance(int u, int v) const {
 }
 
 cv::Mat EdgeMap::unsignedDistance(double truncation_px) const {
-  cv::Mat result(distance_.size(), CV_32F, cv::Scalar(truncation_px));
+  const double limit = std::min(truncation_px, max_distance_);  // what far pixels read
+  cv::Mat result(distance_.size(), CV_32F, cv::Scalar(limit));
   if (!nearest_) return result;
-  const double limit = std::min(truncation_px, max_distance_);
+  // Within twice the line band of its nearest point a pixel's distance may be less than the
+  // point's (the tangent line is nearer); beyond both, it is at least `limit`.
+  const double reach = std::max(limit, 2.0 * nearest_->band);
   for (int v = 0; v < result.rows; ++v) {
     float* row = result.ptr<float>(v);
     for (int u = 0; u < result.cols; ++u) {
@@ -306,11 +309,12 @@ cv::Mat EdgeMap::unsignedDistance(double truncation_px) const {
         row[u] = static_cast<float>(std::min<double>(std::abs(known), truncation_px));
         continue;
       }
-      // Farther than the truncation from every edge needs no exact nearest: a bounded search.
+      // A pixel that far from every edge needs no exact nearest: a bounded search.
       const Eigen::Vector2d pixel(u, v);
-      const int k = nearest_->find(pixel, limit);
-      if (k < 0 || (nearest_->points[k] - pixel).squaredNorm() >= limit * limit) continue;
-      row[u] = static_cast<float>(std::min<double>(std::abs(computeDistance(u, v)), truncation_px));
+      const int k = nearest_->find(pixel, reach);
+      if (k < 0 || (nearest_->points[k] - pixel).squaredNorm() >= reach * reach) continue;
+      row[u] =
+          static_cast<float>(std::min<double>(std::abs(computeDistance(u, v, k)), truncation_px));
     }
   }
   return result;

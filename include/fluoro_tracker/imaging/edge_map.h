@@ -102,8 +102,9 @@ class EdgeMap {
 
   void findNearestEdges(const cv::Mat& gx, const cv::Mat& gy, const cv::Mat& magnitude,
                         double band);
-  // Works out the signed distance at pixel (u, v) and keeps it in distance_.
-  float computeDistance(int u, int v) const;
+  // Works out the signed distance at pixel (u, v) and keeps it in distance_; `nearest_point`:
+  // the index of its nearest edge point when already found, else -1.
+  float computeDistance(int u, int v, int nearest_point = -1) const;
 
   geometry::XrayCamera camera_;
   cv::Rect roi_;

@@ -138,15 +138,18 @@ TEST(EdgeMap, DistanceIsToTheNearestEdgePointFoundByBruteForce) {
     }
   }
   EXPECT_GT(checked, 1000);
-  const EdgeMap fresh(image, kCamera, settings);
-  const cv::Mat truncated = fresh.unsignedDistance(3.0);
-  for (int v = 0; v < truncated.rows; v += 2) {
-    for (int u = 0; u < truncated.cols; u += 2) {
-      double d = 0.0;
-      double du = 0.0;
-      double dv = 0.0;
-      map.sample(u, v, &d, &du, &dv);
-      EXPECT_NEAR(truncated.at<float>(v, u), std::min(std::abs(d), 3.0), 1e-5);
+  for (double truncation : {1.0, 3.0, 100.0}) {
+    const EdgeMap fresh(image, kCamera, settings);
+    const cv::Mat truncated = fresh.unsignedDistance(truncation);
+    for (int v = 0; v < truncated.rows; ++v) {
+      for (int u = 0; u < truncated.cols; ++u) {
+        double d = 0.0;
+        double du = 0.0;
+        double dv = 0.0;
+        map.sample(u, v, &d, &du, &dv);
+        ASSERT_NEAR(truncated.at<float>(v, u), std::min(std::abs(d), truncation), 1e-5)
+            << "pixel " << u << ", " << v << " truncation " << truncation;
+      }
     }
   }
 }
