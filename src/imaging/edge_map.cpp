@@ -201,7 +201,7 @@ void EdgeMap::findNearestEdges(const cv::Mat& gx, const cv::Mat& gy, const cv::M
     distance_ = cv::Mat(edges_.size(), CV_32F, cv::Scalar(max_distance_));
     return;
   }
-  distance_ = cv::Mat(edges_.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  distance_ = cv::Mat(edges_.size(), CV_32F, cv::Scalar(kNotWorkedOut));
   // The points bucketed by grid cell (a counting sort), so that a pixel's nearest is found by
   // searching the cells around it ring by ring.
   auto nearest = std::make_shared<NearestEdges>();
@@ -305,7 +305,7 @@ cv::Mat EdgeMap::unsignedDistance(double truncation_px) const {
     float* row = result.ptr<float>(v);
     for (int u = 0; u < result.cols; ++u) {
       const float known = distance_.at<float>(v, u);
-      if (!std::isnan(known)) {
+      if (known != kNotWorkedOut) {
         row[u] = static_cast<float>(std::min<double>(std::abs(known), truncation_px));
         continue;
       }
@@ -337,7 +337,7 @@ bool EdgeMap::sample(double u, double v, double* distance, double* du, double* d
   const float* r0 = distance_.ptr<float>(v0);
   const float* r1 = distance_.ptr<float>(v0 + 1);
   const auto at = [&](const float* row, int uu, int vv) -> double {
-    return std::isnan(row[uu]) ? computeDistance(uu, vv) : row[uu];
+    return row[uu] == kNotWorkedOut ? computeDistance(uu, vv) : row[uu];
   };
   const double f00 = at(r0, u0, v0);
   const double f10 = at(r0, u0 + 1, v0);

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -84,6 +85,9 @@ class EdgeMap {
 
  private:
   static constexpr int kCellPx = 4;  // of the grid the edge points are bucketed in
+  // distance_'s value where not yet worked out: finite, unlike NaN, so that builds with
+  // -ffinite-math-only still see it (distances lie within +-max_distance_px).
+  static constexpr float kNotWorkedOut = std::numeric_limits<float>::max();
 
   // What the signed distance of any pixel is worked out from: the sub-pixel edge points
   // bucketed by grid cell, searched ring by ring around the pixel.
@@ -112,7 +116,7 @@ class EdgeMap {
   double max_distance_ = 0.0;
   cv::Mat grey_;
   cv::Mat edges_;
-  cv::Mat distance_;                             // CV_32F; NaN where not yet worked out
+  cv::Mat distance_;                             // CV_32F; kNotWorkedOut where not yet
   std::shared_ptr<const NearestEdges> nearest_;  // null: no edges (distance_ is all max)
   cv::Mat edge_points_;  // CV_32FC2: sub-pixel edge position at each edge pixel
 };
