@@ -118,12 +118,25 @@ struct Tally {
   // flagged suspect or lost, among failed and among successful frames.
   int failed_flagged = 0;
   int good_flagged = 0;
+  // Successful frames (the criteria leave the beam direction out) with a bone more than
+  // kFarAlongBeamMm off along the beam, and how many of them were flagged.
+  static constexpr double kFarAlongBeamMm = 5.0;
+  int good_far_along_beam = 0;
+  int good_far_along_beam_flagged = 0;
 
-  void addStatus(const std::vector<std::string>& status, bool success) {
+  void addStatus(const std::vector<std::string>& status, bool success,
+                 const std::vector<PoseError>& errors) {
     const bool flagged =
         std::any_of(status.begin(), status.end(), [](const std::string& s) { return s != "ok"; });
     if (flagged && success) ++good_flagged;
     if (flagged && !success) ++failed_flagged;
+    const bool far_along_beam = std::any_of(errors.begin(), errors.end(), [](const PoseError& e) {
+      return std::abs(e.translation_mm.z()) > kFarAlongBeamMm;
+    });
+    if (success && far_along_beam) {
+      ++good_far_along_beam;
+      if (flagged) ++good_far_along_beam_flagged;
+    }
   }
 
   void addSimilarity(double at_result, double at_truth, bool success) {
@@ -234,7 +247,10 @@ struct Tally {
               << "/" << frames - successes << " failed frames ("
               << 100.0 * failed_flagged / std::max(1, frames - successes) << " %), " << good_flagged
               << "/" << successes << " successful frames ("
-              << 100.0 * good_flagged / std::max(1, successes) << " %)\n";
+              << 100.0 * good_flagged / std::max(1, successes) << " %); of the successful frames, "
+              << good_far_along_beam_flagged << "/" << good_far_along_beam
+              << " with a bone more than " << kFarAlongBeamMm
+              << " mm off along the beam were flagged\n";
     std::cout << std::setprecision(1) << "  time per frame: median "
               << percentile(milliseconds, 0.5) << " ms, p95 " << percentile(milliseconds, 0.95)
               << " ms; cost evaluations per frame: median " << percentile(evaluations, 0.5) << "\n";
@@ -338,7 +354,7 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
            "contour_rms_px,penetration_mm,envelope_violation,out_of_plane_sd_mm,"
            "rotation_sd_deg,status,error_x_mm,error_y_mm,error_z_mm,error_rx_deg,error_ry_deg,"
            "error_rz_deg,flexion_deg,adduction_deg,internal_rotation_deg,true_flexion_deg,"
-           "true_adduction_deg,true_internal_rotation_deg\n";
+           "true_adduction_deg,true_internal_rotation_deg,edge_offset_px\n";
   }
   std::vector<Tally> tallies(conditions.size());
   for (Tally& t : tallies) {
@@ -419,7 +435,7 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
                 std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
                     .count(),
                 0);
-            tally.addStatus({"lost"}, false);
+            tally.addStatus({"lost"}, false, {});
             continue;
           }
         } else {
@@ -450,7 +466,7 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
                             similarity_truth, success);
         std::vector<std::string> status = registration::classifyBones(result, settings.quality);
         inlier_histories[c].classify(result.quality, &status);
-        tally.addStatus(status, success);
+        tally.addStatus(status, success, errors);
         if (!success && !outputs.failure_overlay_dir.empty()) {
           char name[64];
           std::snprintf(name, sizeof(name), "/failed_c%zu_t%02d_f%03d.png", c, trial, f);
@@ -480,7 +496,12 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
                            << geometry::radToDeg(k->adduction_rad) << ","
                            << geometry::radToDeg(k->internal_rotation_rad);
             }
-            *quality_csv << "\n";
+            // The first view's estimated edge offset (full-resolution pixels, + inward).
+            *quality_csv << ","
+                         << (result.edge_offsets_px.size() > b && !result.edge_offsets_px[b].empty()
+                                 ? result.edge_offsets_px[b][0]
+                                 : 0.0)
+                         << "\n";
           }
         }
       }
@@ -608,7 +629,11 @@ void runKneel(const std::string& dir, int starts, std::uint64_t seed,
           const double in_plane = std::hypot(e.translation_mm.x(), e.translation_mm.y());
           std::cout << std::fixed << std::setprecision(2) << (b == 0 ? " femur" : "  tibia")
                     << " in-plane " << in_plane << " mm, out-of-plane " << e.translation_mm.z()
-                    << " mm, rotation " << e.rotation_deg.norm() << " deg;";
+                    << " mm, rotation " << e.rotation_deg.norm() << " deg";
+          if (b < result.edge_offsets_px.size() && !result.edge_offsets_px[b].empty()) {
+            std::cout << ", edge offset " << result.edge_offsets_px[b][0] << " px";
+          }
+          std::cout << ";";
           ok = ok && in_plane <= 1.0 && e.rotation_deg.norm() <= 2.0;
         }
         std::cout << "\n";
