@@ -157,14 +157,43 @@ ArticularContact::ArticularContact(const geometry::Mesh& parent_surface,
   child_bvh_ = geometry::buildBvh(child_surface);
 }
 
+ArticularContact::SampleSubset ArticularContact::subset(std::vector<int> samples) const {
+  SampleSubset part;
+  std::vector<char> chosen(samples_.size(), 0);
+  for (int i : samples) chosen.at(static_cast<std::size_t>(i)) = 1;
+  part.samples = std::move(samples);
+  for (std::size_t t = 0; t < triangles_.size(); ++t) {
+    const int* corner = triangles_[t].sample;
+    if (chosen[corner[0]] || chosen[corner[1]] || chosen[corner[2]]) {
+      part.triangles.push_back(static_cast<int>(t));
+    }
+  }
+  return part;
+}
+
 double ArticularContact::measure(const double* distances_m, double* d_measure_d_distance) const {
-  const std::size_t n = samples_.size();
-  if (d_measure_d_distance) std::fill(d_measure_d_distance, d_measure_d_distance + n, 0.0);
+  SampleSubset everything;
+  everything.samples.resize(samples_.size());
+  for (std::size_t i = 0; i < samples_.size(); ++i) everything.samples[i] = static_cast<int>(i);
+  everything.triangles.resize(triangles_.size());
+  for (std::size_t t = 0; t < triangles_.size(); ++t) everything.triangles[t] = static_cast<int>(t);
+  return measure(distances_m, d_measure_d_distance, everything);
+}
+
+double ArticularContact::measure(const double* distances_m, double* d_measure_d_distance,
+                                 const SampleSubset& part) const {
+  if (d_measure_d_distance) {
+    for (int i : part.samples) d_measure_d_distance[i] = 0.0;
+    for (int t : part.triangles) {
+      for (int corner : triangles_[t].sample) d_measure_d_distance[corner] = 0.0;
+    }
+  }
   const double band = settings_.dead_band_mm;
   switch (settings_.measure) {
     case ContactMeasure::kPenetrationDepth: {
-      std::size_t deepest = 0;
-      for (std::size_t i = 1; i < n; ++i) {
+      if (part.samples.empty()) return 0.0;
+      int deepest = part.samples.front();
+      for (int i : part.samples) {
         if (distances_m[i] < distances_m[deepest]) deepest = i;
       }
       const double q = -distances_m[deepest] * kMillimetresPerMetre - band;
@@ -173,8 +202,9 @@ double ArticularContact::measure(const double* distances_m, double* d_measure_d_
       return q;
     }
     case ContactMeasure::kSeparation: {
-      std::size_t nearest = 0;
-      for (std::size_t i = 1; i < n; ++i) {
+      if (part.samples.empty()) return 0.0;
+      int nearest = part.samples.front();
+      for (int i : part.samples) {
         if (distances_m[i] < distances_m[nearest]) nearest = i;
       }
       const double gap = distances_m[nearest] * kMillimetresPerMetre - band;
@@ -193,7 +223,8 @@ double ArticularContact::measure(const double* distances_m, double* d_measure_d_
   const double scale = which == 2 ? 0.5 : 1.0;
   using Jet = ceres::Jet<double, 3>;
   double total = 0.0;
-  for (const Triangle& t : triangles_) {
+  for (int index : part.triangles) {
+    const Triangle& t = triangles_[index];
     double q[3];
     for (int k = 0; k < 3; ++k) q[k] = -distances_m[t.sample[k]] * kMillimetresPerMetre - band;
     if (q[0] <= 0.0 && q[1] <= 0.0 && q[2] <= 0.0) continue;

@@ -27,7 +27,9 @@ ContactCost::ContactCost(const constraints::ArticularContact* contact,
       parent_points_.push_back(parent_pose * samples[i]);
     }
   }
-  // Samples left out read as far outside, so they add nothing to any measure.
+  // Samples left out read as far outside, so they add nothing to any measure, which then
+  // needs only the kept samples and their triangles.
+  part_ = contact_->subset(active_);
   distances_.assign(samples.size(), 1.0);
   d_measure_.assign(samples.size(), 0.0);
   gradients_.resize(active_.size());
@@ -61,7 +63,7 @@ bool ContactCost::Evaluate(double const* const* parameters, double* residuals,
     rotated_child_[k] = in_child;
   }
   const double m =
-      contact_->measure(distances_.data(), want_jacobians ? d_measure_.data() : nullptr);
+      contact_->measure(distances_.data(), want_jacobians ? d_measure_.data() : nullptr, part_);
   double d_penalty = 0.0;
   residuals[0] = contact_->penalty(m, &d_penalty);
   if (!want_jacobians) return true;

@@ -35,7 +35,8 @@ class ContactCost : public ceres::SizedCostFunction<1, 6, 6> {
 
  private:
   const constraints::ArticularContact* contact_;
-  std::vector<int> active_;                     // sample indices kept
+  std::vector<int> active_;                           // sample indices kept
+  constraints::ArticularContact::SampleSubset part_;  // ... and their triangles
   std::vector<Eigen::Vector3d> parent_points_;  // active samples at the parent's pose, fixed frame
   Eigen::Vector3d parent_centre_;
   Eigen::Vector3d child_centre_;

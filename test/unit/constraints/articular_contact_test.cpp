@@ -141,6 +141,47 @@ TEST(ArticularContact, RejectsAnOpenChildSurfaceAnEmptyRegionAndBadNames) {
 }
 
 // The cost's analytic Jacobians against central differences, for every measure.
+// The measure over a part (the samples near the child, as the contact cost culls them) equals
+// the measure over every sample, value and derivatives, when the rest read as far outside.
+TEST(ArticularContact, MeasureOverAPartMatchesTheWholeSurface) {
+  const Mesh sphere = sim::uvSphere(0.02, 48, 96);
+  const Mesh block = sim::box(Eigen::Vector3d(0.04, 0.01, 0.04));
+  for (ContactMeasure measure : {ContactMeasure::kPenetrationDepth,
+                                 ContactMeasure::kPenetrationArea, ContactMeasure::kQuasiVolume,
+                                 ContactMeasure::kElasticEnergy, ContactMeasure::kSeparation}) {
+    // 1.5 mm deep; 2 mm apart for the separation.
+    const bool apart = measure == ContactMeasure::kSeparation;
+    const Pose sphere_pose = translation(0.002, apart ? 0.032 : 0.0285, -0.001);
+    ContactSettings settings = withMeasure(measure);
+    settings.dead_band_mm = 0.5;
+    const ArticularContact contact(sphere, block, settings);
+    const std::size_t n = contact.samples().size();
+    std::vector<int> near;
+    std::vector<double> distances(n, 1.0);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double d = contact.grid().distance(sphere_pose * contact.samples()[i]);
+      // A tight cut, so that triangles straddle it.
+      if (d < (apart ? 0.004 : -0.0003)) {
+        near.push_back(static_cast<int>(i));
+        distances[i] = d;
+      }
+    }
+    ASSERT_GT(near.size(), 10u);
+    ASSERT_LT(near.size(), n / 2);
+    const auto part = contact.subset(near);
+    EXPECT_LT(part.triangles.size(), n);
+    std::vector<double> whole_gradient(n, 7.0);
+    std::vector<double> part_gradient(n, 7.0);  // stale values the part must overwrite
+    const double whole = contact.measure(distances.data(), whole_gradient.data());
+    const double from_part = contact.measure(distances.data(), part_gradient.data(), part);
+    EXPECT_GT(whole, 0.0) << contactMeasureName(measure);
+    EXPECT_NEAR(from_part, whole, 1e-12 * std::max(1.0, whole)) << contactMeasureName(measure);
+    for (int i : near) {
+      EXPECT_NEAR(part_gradient[i], whole_gradient[i], 1e-9) << contactMeasureName(measure);
+    }
+  }
+}
+
 TEST(ContactCost, JacobiansMatchFiniteDifferences) {
   const Mesh sphere = sim::uvSphere(0.02, 48, 96);
   const Mesh block = sim::box(Eigen::Vector3d(0.04, 0.01, 0.04));
