@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "fluoro_tracker/registration/pose_increment.h"
 
@@ -21,20 +22,21 @@ ContactCost::ContactCost(const constraints::ArticularContact* contact,
   // A separation measure looks for the nearest sample wherever it is: no culling.
   const bool keep_all = contact_->settings().measure == constraints::ContactMeasure::kSeparation;
   const double reach = reach_m + contact_->settings().dead_band_mm * 1e-3;
+  std::vector<int> kept;
   for (std::size_t i = 0; i < samples.size(); ++i) {
     if (keep_all || contact_->grid().distance(child_from_parent * samples[i]) <= reach) {
-      active_.push_back(static_cast<int>(i));
+      kept.push_back(static_cast<int>(i));
       parent_points_.push_back(parent_pose * samples[i]);
     }
   }
   // Samples left out read as far outside, so they add nothing to any measure, which then
   // needs only the kept samples and their triangles.
-  part_ = contact_->subset(active_);
+  part_ = contact_->subset(std::move(kept));
   distances_.assign(samples.size(), 1.0);
   d_measure_.assign(samples.size(), 0.0);
-  gradients_.resize(active_.size());
-  rotated_parent_.resize(active_.size());
-  rotated_child_.resize(active_.size());
+  gradients_.resize(part_.samples.size());
+  rotated_parent_.resize(part_.samples.size());
+  rotated_child_.resize(part_.samples.size());
 }
 
 bool ContactCost::Evaluate(double const* const* parameters, double* residuals,
@@ -51,13 +53,13 @@ bool ContactCost::Evaluate(double const* const* parameters, double* residuals,
 
   // A parent sample p moves to p' = Rp (p - cp) + cp + tp; the child's frame moves the same
   // way, so p' lies at y = C^-1 (Rc^T (p' - cc - tc) + cc) in the child's mesh frame.
-  for (std::size_t k = 0; k < active_.size(); ++k) {
+  for (std::size_t k = 0; k < part_.samples.size(); ++k) {
     const Eigen::Vector3d rotated = parent_r * (parent_points_[k] - parent_centre_);
     const Eigen::Vector3d moved = rotated + parent_centre_ + parent_t;
     const Eigen::Vector3d in_child = child_r_t * (moved - child_centre_ - child_t);
     const Eigen::Vector3d y =
         child_rotation_t_ * (in_child + child_centre_) + child_translation_inv_;
-    distances_[active_[k]] =
+    distances_[part_.samples[k]] =
         contact_->grid().distance(y, want_jacobians ? &gradients_[k] : nullptr);
     rotated_parent_[k] = rotated;
     rotated_child_[k] = in_child;
@@ -70,8 +72,8 @@ bool ContactCost::Evaluate(double const* const* parameters, double* residuals,
 
   Eigen::Matrix<double, 1, 6> d_parent = Eigen::Matrix<double, 1, 6>::Zero();
   Eigen::Matrix<double, 1, 6> d_child = Eigen::Matrix<double, 1, 6>::Zero();
-  for (std::size_t k = 0; k < active_.size(); ++k) {
-    const double coefficient = d_penalty * d_measure_[active_[k]];
+  for (std::size_t k = 0; k < part_.samples.size(); ++k) {
+    const double coefficient = d_penalty * d_measure_[part_.samples[k]];
     if (coefficient == 0.0) continue;
     // d(distance)/d(child-frame point) -> d/d(moved point in the fixed frame).
     const Eigen::RowVector3d g_child = gradients_[k].transpose() * child_rotation_t_;

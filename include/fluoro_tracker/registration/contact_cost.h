@@ -31,12 +31,11 @@ class ContactCost : public ceres::SizedCostFunction<1, 6, 6> {
                 double** jacobians) const override;
 
   // Number of samples evaluated (after culling).
-  std::size_t activeSamples() const { return active_.size(); }
+  std::size_t activeSamples() const { return part_.samples.size(); }
 
  private:
   const constraints::ArticularContact* contact_;
-  std::vector<int> active_;                           // sample indices kept
-  constraints::ArticularContact::SampleSubset part_;  // ... and their triangles
+  constraints::ArticularContact::SampleSubset part_;  // samples kept, and their triangles
   std::vector<Eigen::Vector3d> parent_points_;  // active samples at the parent's pose, fixed frame
   Eigen::Vector3d parent_centre_;
   Eigen::Vector3d child_centre_;
