@@ -140,7 +140,6 @@ TEST(ArticularContact, RejectsAnOpenChildSurfaceAnEmptyRegionAndBadNames) {
   EXPECT_EQ(contactMeasureFromName("elastic_energy"), ContactMeasure::kElasticEnergy);
 }
 
-// The cost's analytic Jacobians against central differences, for every measure.
 // The measure over a part (the samples near the child, as the contact cost culls them) equals
 // the measure over every sample, value and derivatives, when the rest read as far outside.
 TEST(ArticularContact, MeasureOverAPartMatchesTheWholeSurface) {
@@ -182,6 +181,7 @@ TEST(ArticularContact, MeasureOverAPartMatchesTheWholeSurface) {
   }
 }
 
+// The cost's analytic Jacobians against central differences, for every measure.
 TEST(ContactCost, JacobiansMatchFiniteDifferences) {
   const Mesh sphere = sim::uvSphere(0.02, 48, 96);
   const Mesh block = sim::box(Eigen::Vector3d(0.04, 0.01, 0.04));
