@@ -257,6 +257,13 @@ struct Tally {
   }
 };
 
+// Bone b's estimated edge offset in the first view (full-resolution pixels, + inward); null
+// when the registration estimated none.
+const double* firstViewEdgeOffset(const registration::RegistrationResult& result, std::size_t b) {
+  if (b >= result.edge_offsets_px.size() || result.edge_offsets_px[b].empty()) return nullptr;
+  return &result.edge_offsets_px[b][0];
+}
+
 std::vector<registration::BoneModel> boneModels(const std::vector<const geometry::Mesh*>& meshes,
                                                 const std::vector<std::string>& names) {
   std::vector<registration::BoneModel> bones;
@@ -496,12 +503,8 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
                            << geometry::radToDeg(k->adduction_rad) << ","
                            << geometry::radToDeg(k->internal_rotation_rad);
             }
-            // The first view's estimated edge offset (full-resolution pixels, + inward).
-            *quality_csv << ","
-                         << (result.edge_offsets_px.size() > b && !result.edge_offsets_px[b].empty()
-                                 ? result.edge_offsets_px[b][0]
-                                 : 0.0)
-                         << "\n";
+            const double* offset = firstViewEdgeOffset(result, b);
+            *quality_csv << "," << (offset != nullptr ? *offset : 0.0) << "\n";
           }
         }
       }
@@ -630,8 +633,8 @@ void runKneel(const std::string& dir, int starts, std::uint64_t seed,
           std::cout << std::fixed << std::setprecision(2) << (b == 0 ? " femur" : "  tibia")
                     << " in-plane " << in_plane << " mm, out-of-plane " << e.translation_mm.z()
                     << " mm, rotation " << e.rotation_deg.norm() << " deg";
-          if (b < result.edge_offsets_px.size() && !result.edge_offsets_px[b].empty()) {
-            std::cout << ", edge offset " << result.edge_offsets_px[b][0] << " px";
+          if (const double* offset = firstViewEdgeOffset(result, b)) {
+            std::cout << ", edge offset " << *offset << " px";
           }
           std::cout << ";";
           ok = ok && in_plane <= 1.0 && e.rotation_deg.norm() <= 2.0;
