@@ -580,6 +580,8 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
     // A candidate must be nearer neutral than the solution by the margin; of those, the nearest.
     const double required_deviation =
         deviation(result.poses) - settings_.mirror_check.min_neutral_gain;
+    // No pose is nearer neutral than zero: a solution within the margin of neutral keeps.
+    if (!(required_deviation > 0.0)) continue;
     double best_deviation = std::numeric_limits<double>::infinity();
     SolveCounts counts(result);
     // The candidates' joint figures and image quality are worked out for the one kept only.
