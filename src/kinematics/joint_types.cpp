@@ -1,5 +1,7 @@
 #include "fluoro_tracker/kinematics/joint_types.h"
 
+#include <cmath>
+
 #include "fluoro_tracker/input_error.h"
 
 namespace fluoro_tracker {
@@ -13,8 +15,8 @@ struct Convention {
   double first_angle_sign;  // relative to the knee's flexion (the others keep the knee's signs)
 };
 
-const std::array<Convention, 4>& conventions() {
-  static const std::array<Convention, 4> table = {{
+const std::array<Convention, 5>& conventions() {
+  static const std::array<Convention, 5> table = {{
       {JointType::kKnee,
        "knee",
        {{"flexion", "adduction", "internal_rotation"}, {"anterior", "superior", "lateral"}},
@@ -33,6 +35,11 @@ const std::array<Convention, 4>& conventions() {
        "elbow",
        {{"flexion", "varus", "pronation"}, {"anterior", "superior", "lateral"}},
        -1.0},
+      // Not of the Grood & Suntay kind: see glenohumeralCoordinates.
+      {JointType::kGlenohumeral,
+       "glenohumeral",
+       {{"plane_of_elevation", "elevation", "axial_rotation"}, {"anterior", "superior", "lateral"}},
+       1.0},
   }};
   return table;
 }
@@ -44,6 +51,37 @@ const Convention& conventionOf(JointType type) {
   return conventions().front();
 }
 
+// ISB Y-X-Y: r = Ry(a) Rx(b) Ry(g), so r(1,1) = cos b, r(0,1) = sin a sin b,
+// r(2,1) = cos a sin b, r(1,0) = sin b sin g, r(1,2) = -sin b cos g; b is taken <= 0.
+KneeCoordinates glenohumeralCoordinates(const geometry::Pose& scapula,
+                                        const geometry::Pose& humerus, Side side) {
+  geometry::Pose relative = scapula.inverse() * humerus;
+  if (side == Side::kLeft) {
+    // The mirror image through the sagittal plane is a right shoulder.
+    const Eigen::Matrix3d mirror = Eigen::Vector3d(1.0, 1.0, -1.0).asDiagonal();
+    relative =
+        geometry::makePose(mirror * relative.linear() * mirror, mirror * relative.translation());
+  }
+  const Eigen::Matrix3d r = relative.linear();
+  KneeCoordinates out;
+  const double sin_b = -std::hypot(r(0, 1), r(2, 1));  // b in [-pi, 0]
+  out.adduction_rad = std::atan2(sin_b, r(1, 1));
+  // Below this the first and third axes are one to machine precision: all of it is the third.
+  if (-sin_b > 1e-12) {
+    out.flexion_rad = std::atan2(-r(0, 1), -r(2, 1));
+    out.internal_rotation_rad = std::atan2(-r(1, 0), r(1, 2));
+  } else {
+    // With a = 0: r = Ry(g) (b = 0) or Rx(-pi) Ry(g) (b = -pi); either way r(0,0) = cos g and
+    // r(0,2) = sin g.
+    out.flexion_rad = 0.0;
+    out.internal_rotation_rad = std::atan2(r(0, 2), r(0, 0));
+  }
+  out.x_m = relative.translation().x();
+  out.y_m = relative.translation().y();
+  out.z_m = relative.translation().z();
+  return out;
+}
+
 }  // namespace
 
 JointType jointTypeFromName(const std::string& name) {
@@ -53,7 +91,7 @@ JointType jointTypeFromName(const std::string& name) {
     accepted += (accepted.empty() ? "" : ", ") + std::string(c.name);
   }
   throw InputError("joint type '" + name + "' is not one of " + accepted +
-                   " (glenohumeral, radioulnar and patellofemoral systems are not available)");
+                   " (radioulnar and patellofemoral systems are not available)");
 }
 
 std::string jointTypeName(JointType type) {
@@ -65,9 +103,18 @@ const JointCoordinateNames& coordinateNames(JointType type) {
 }
 
 KneeCoordinates inJointConvention(JointType type, const KneeCoordinates& knee) {
+  if (type == JointType::kGlenohumeral) {
+    throw InputError("glenohumeral coordinates come from the bones' poses, not the knee's");
+  }
   KneeCoordinates out = knee;
   out.flexion_rad *= conventionOf(type).first_angle_sign;
   return out;
+}
+
+KneeCoordinates jointCoordinates(JointType type, const geometry::Pose& proximal,
+                                 const geometry::Pose& distal, Side side) {
+  if (type == JointType::kGlenohumeral) return glenohumeralCoordinates(proximal, distal, side);
+  return inJointConvention(type, kneeCoordinates(proximal, distal, side));
 }
 
 }  // namespace kinematics

@@ -564,6 +564,8 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
   const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();
   for (const JointModel& joint : joints_) {
     if (result.diverged[joint.parent] || result.diverged[joint.child]) continue;
+    // Its rule (nearer neutral wins) and its bounds are the knee's.
+    if (joint.type != kinematics::JointType::kKnee) continue;
     const auto deviation = [&](const std::vector<geometry::Pose>& poses) {
       return neutralDeviation(joint.ligaments,
                               joint.coordinates(poses[joint.parent], poses[joint.child]));

@@ -30,10 +30,11 @@ kinematics::KneeCoordinates jointCoordinates(const registration::Registrar& regi
                                              std::size_t joint,
                                              const registration::TrackedFrame& tracked) {
   const auto& model = registrar.joints()[joint];
-  return kinematics::inJointConvention(
-      model.type, joint < tracked.result.joints.size()
-                      ? tracked.result.joints[joint].coordinates
-                      : model.coordinates(tracked.poses[model.parent], tracked.poses[model.child]));
+  // A frame whose solve failed has no joint results: its kinematics come from the poses it
+  // reports.
+  const std::vector<geometry::Pose>& poses =
+      joint < tracked.result.joints.size() ? tracked.result.poses : tracked.poses;
+  return model.reportedCoordinates(poses[model.parent], poses[model.child]);
 }
 
 std::string jointStatus(const registration::Registrar& registrar, std::size_t joint,

@@ -196,13 +196,9 @@ int main(int argc, char** argv) {
           }
           for (std::size_t j = 0; j < registrar.joints().size(); ++j) {
             const auto& joint = registrar.joints()[j];
-            // A frame whose solve failed has no joint results: its kinematics come from the
-            // poses it reports.
-            const auto coordinates = kinematics::inJointConvention(
-                joint.type,
-                j < result.joints.size()
-                    ? result.joints[j].coordinates
-                    : joint.coordinates(result.poses[joint.parent], result.poses[joint.child]));
+            // From the poses the frame reports (a failed solve has no joint results).
+            const auto coordinates =
+                joint.reportedCoordinates(result.poses[joint.parent], result.poses[joint.child]);
             kinematics.push_back(
                 {frame.index, frame.stamp_s, joint.name, coordinates,
                  registration::combinedStatus(status[joint.parent], status[joint.child])});

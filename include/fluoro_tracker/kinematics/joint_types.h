@@ -21,13 +21,24 @@ namespace kinematics {
 //   elbow (humeroulnar: humerus -> ulna; Wu et al. 2005): flexion (+: the forearm's distal end
 //     moves anterior), varus (+: the forearm's distal end moves medially), pronation (+: the
 //     forearm turns internally about its long axis).
-// Translations, for every type: the distal frame's origin relative to the proximal frame's,
-// along e2 (anterior), e3 (superior, i.e. proximal) and e1 (lateral).
-// Not covered (their ISB systems are Euler sequences of another kind): glenohumeral (Y-X-Y),
-// radioulnar, patellofemoral.
-enum class JointType { kKnee, kAnkle, kSubtalar, kElbow };
+// Translations, for every type above: the distal frame's origin relative to the proximal
+// frame's, along e2 (anterior), e3 (superior, i.e. proximal) and e1 (lateral).
+//
+// glenohumeral (scapula -> humerus; Wu et al. 2005, ISB shoulder): an Euler sequence Y-X-Y
+// instead, the humerus' rotation in the scapula frame being Ry(plane_of_elevation)
+// Rx(elevation) Ry(axial_rotation) for the right side: plane of elevation 0 for abduction and
+// 90 deg for forward flexion; elevation with the ISB's sign, negative as the arm rises (taken in
+// [-180, 0] deg); axial rotation positive internal (the front turns medially). With the arm
+// along the trunk (elevation 0) the first and third axes coincide: the whole turn is then
+// reported as axial rotation and the plane of elevation as 0. Translations: the humerus
+// origin relative to the scapula origin along the scapula's X (anterior), Y (superior) and Z
+// (lateral). The left side mirrors the right, as for the other types.
+//
+// Not covered: radioulnar and patellofemoral.
+enum class JointType { kKnee, kAnkle, kSubtalar, kElbow, kGlenohumeral };
 
-// "knee", "ankle", "subtalar", "elbow"; throws InputError naming the accepted types.
+// "knee", "ankle", "subtalar", "elbow", "glenohumeral"; throws InputError naming the accepted
+// types.
 JointType jointTypeFromName(const std::string& name);
 std::string jointTypeName(JointType type);
 
@@ -38,8 +49,15 @@ struct JointCoordinateNames {
 const JointCoordinateNames& coordinateNames(JointType type);
 
 // The joint's clinical coordinates from the knee-convention ones of the same two frames (in the
-// same fields and order: angle about e1, e2, e3; translation along e2, e3, e1).
+// same fields and order: angle about e1, e2, e3; translation along e2, e3, e1). For the types
+// of the Grood & Suntay kind only (not glenohumeral: its angles cannot be recovered from the
+// knee's where those are singular, with the humerus' long axis along the scapula's Z).
 KneeCoordinates inJointConvention(JointType type, const KneeCoordinates& knee);
+
+// Any type's coordinates (the three angles, then the three translations, in the fields of
+// KneeCoordinates in that order) from the two anatomical frames' poses (any common frame).
+KneeCoordinates jointCoordinates(JointType type, const geometry::Pose& proximal,
+                                 const geometry::Pose& distal, Side side);
 
 }  // namespace kinematics
 }  // namespace fluoro_tracker

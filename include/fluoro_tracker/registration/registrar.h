@@ -215,7 +215,8 @@ struct JointModel {
   int parent = -1;
   int child = -1;
   kinematics::Side side = kinematics::Side::kRight;
-  // Names and signs of the reported coordinates (the geometry is the knee's for every type).
+  // The reported coordinates' system (kinematics::JointType); the registration's own terms
+  // (ligament bounds, the mirror check) use the knee's.
   kinematics::JointType type = kinematics::JointType::kKnee;
   // Each bone's anatomical frame in its mesh frame (identity: the mesh frame is anatomical).
   geometry::Pose parent_anatomical = geometry::Pose::Identity();
@@ -230,6 +231,12 @@ struct JointModel {
                                           const geometry::Pose& child_pose) const {
     return kinematics::kneeCoordinates(parent_pose * parent_anatomical,
                                        child_pose * child_anatomical, side);
+  }
+  // The coordinates reported to users (CSV, messages), in the joint type's system.
+  kinematics::KneeCoordinates reportedCoordinates(const geometry::Pose& parent_pose,
+                                                  const geometry::Pose& child_pose) const {
+    return kinematics::jointCoordinates(type, parent_pose * parent_anatomical,
+                                        child_pose * child_anatomical, side);
   }
   // How far the joint lies outside its ligaments: the largest of its coordinates' distance
   // outside their bounds (deg or mm, envelopeViolation) and its bundles' stretch (mm).

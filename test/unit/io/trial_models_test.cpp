@@ -58,9 +58,21 @@ TEST(TrialModels, BuildsImageModelsAndContactFromTheArticularMesh) {
   io::TrialConfig ankle = kneeTrial(dir, false);
   ankle.joints[0].type = "ankle";
   EXPECT_EQ(io::loadTrialModels(ankle).joints[0].type, kinematics::JointType::kAnkle);
+  // A shoulder's joint reports the ISB's Y-X-Y angles (kinematics::jointCoordinates).
   io::TrialConfig shoulder = kneeTrial(dir, false);
   shoulder.joints[0].type = "glenohumeral";
-  EXPECT_THROW_WITH(io::loadTrialModels(shoulder), "glenohumeral");
+  const registration::JointModel glenohumeral = io::loadTrialModels(shoulder).joints[0];
+  EXPECT_EQ(glenohumeral.type, kinematics::JointType::kGlenohumeral);
+  const geometry::Pose humerus = geometry::makePose(
+      geometry::rotationY(0.5) * geometry::rotationX(-0.7) * geometry::rotationY(0.2),
+      Eigen::Vector3d(0.0, -0.01, 0.0));
+  const auto reported = glenohumeral.reportedCoordinates(geometry::Pose::Identity(), humerus);
+  EXPECT_NEAR(reported.flexion_rad, 0.5, 1e-9);
+  EXPECT_NEAR(reported.adduction_rad, -0.7, 1e-9);
+  EXPECT_NEAR(reported.internal_rotation_rad, 0.2, 1e-9);
+  io::TrialConfig unknown = kneeTrial(dir, false);
+  unknown.joints[0].type = "radioulnar";
+  EXPECT_THROW_WITH(io::loadTrialModels(unknown), "radioulnar");
 }
 
 TEST(TrialModels, AnOpenArticularSurfaceIsRejectedNamingTheFile) {

@@ -80,11 +80,81 @@ TEST(JointTypes, LeftMirrorsRight) {
   }
 }
 
+// Glenohumeral (ISB Y-X-Y): a humerus frame built from known angles and an offset, anywhere in
+// space, gives them back; on the left, from the mirrored frames.
+TEST(JointTypes, GlenohumeralRoundTrip) {
+  const Pose scapula = geometry::makePose(geometry::rotationZ(0.4) * geometry::rotationX(-0.2),
+                                          Eigen::Vector3d(0.1, 0.9, -0.3));
+  const Eigen::Matrix3d mirror = Eigen::Vector3d(1.0, 1.0, -1.0).asDiagonal();
+  const Eigen::Vector3d offset(-0.004, -0.012, 0.021);
+  for (double plane_deg : {-60.0, 0.0, 30.0, 90.0, 170.0}) {
+    for (double elevation_deg : {-5.0, -45.0, -90.0, -150.0}) {
+      for (double axial_deg : {-70.0, 0.0, 25.0}) {
+        const Eigen::Matrix3d rotation = geometry::rotationY(plane_deg * kDeg) *
+                                         geometry::rotationX(elevation_deg * kDeg) *
+                                         geometry::rotationY(axial_deg * kDeg);
+        const Pose right = scapula * geometry::makePose(rotation, offset);
+        const Pose left = scapula * geometry::makePose(mirror * rotation * mirror, mirror * offset);
+        for (const auto& [humerus, side] : {std::pair<Pose, Side>{right, Side::kRight},
+                                            std::pair<Pose, Side>{left, Side::kLeft}}) {
+          const auto c =
+              kinematics::jointCoordinates(JointType::kGlenohumeral, scapula, humerus, side);
+          EXPECT_NEAR(c.flexion_rad, plane_deg * kDeg, 1e-9) << plane_deg << " " << elevation_deg;
+          EXPECT_NEAR(c.adduction_rad, elevation_deg * kDeg, 1e-9);
+          EXPECT_NEAR(c.internal_rotation_rad, axial_deg * kDeg, 1e-9);
+          EXPECT_NEAR(c.x_m, offset.x(), 1e-12);
+          EXPECT_NEAR(c.y_m, offset.y(), 1e-12);
+          EXPECT_NEAR(c.z_m, offset.z(), 1e-12);
+        }
+      }
+    }
+  }
+}
+
+// The ISB's movements, right side: abduction and forward flexion raise the arm with negative
+// elevation in the planes 0 and 90 deg; the arm along the trunk, turned about its long axis,
+// reports it all as axial rotation (the plane of elevation is undefined there), internal
+// positive; a humerus flipped upside down (elevation -180 deg) likewise.
+TEST(JointTypes, GlenohumeralMovements) {
+  const Pose scapula = Pose::Identity();
+  const auto gh = [&](const Eigen::Matrix3d& rotation) {
+    return kinematics::jointCoordinates(JointType::kGlenohumeral, scapula,
+                                        geometry::makePose(rotation, Eigen::Vector3d::Zero()),
+                                        Side::kRight);
+  };
+  // Abducted 40 deg: the humerus' distal end (-Y) swings lateral (+Z on the right).
+  const auto abducted = gh(geometry::rotationX(-40.0 * kDeg));
+  EXPECT_GT((geometry::rotationX(-40.0 * kDeg) * -Eigen::Vector3d::UnitY()).z(), 0.0);
+  EXPECT_NEAR(abducted.flexion_rad, 0.0, 1e-12);
+  EXPECT_NEAR(abducted.adduction_rad, -40.0 * kDeg, 1e-12);
+  // Flexed forward 40 deg: the distal end swings anterior (+X), i.e. about +Z by 40 deg.
+  const auto flexed = gh(geometry::rotationZ(40.0 * kDeg));
+  EXPECT_GT((geometry::rotationZ(40.0 * kDeg) * -Eigen::Vector3d::UnitY()).x(), 0.0);
+  EXPECT_NEAR(flexed.flexion_rad, 90.0 * kDeg, 1e-12);
+  EXPECT_NEAR(flexed.adduction_rad, -40.0 * kDeg, 1e-12);
+  EXPECT_NEAR(flexed.internal_rotation_rad, -90.0 * kDeg, 1e-12);
+  // Along the trunk, the front (X) turned medially (-Z): internal rotation.
+  const auto internal = gh(geometry::rotationY(30.0 * kDeg));
+  EXPECT_LT((geometry::rotationY(30.0 * kDeg) * Eigen::Vector3d::UnitX()).z(), 0.0);
+  EXPECT_NEAR(internal.flexion_rad, 0.0, 1e-12);
+  EXPECT_NEAR(internal.adduction_rad, 0.0, 1e-12);
+  EXPECT_NEAR(internal.internal_rotation_rad, 30.0 * kDeg, 1e-12);
+  const auto overhead = gh(geometry::rotationX(-M_PI) * geometry::rotationY(-20.0 * kDeg));
+  EXPECT_NEAR(overhead.flexion_rad, 0.0, 1e-12);
+  EXPECT_NEAR(std::abs(overhead.adduction_rad), M_PI, 1e-12);
+  EXPECT_NEAR(overhead.internal_rotation_rad, -20.0 * kDeg, 1e-12);
+  // Only from poses: the knee's coordinates lose it where the humerus' Y meets the scapula's Z.
+  EXPECT_THROW_WITH(kinematics::inJointConvention(JointType::kGlenohumeral, {}), "poses");
+}
+
 TEST(JointTypes, NamesAndUnknownTypes) {
   EXPECT_EQ(kinematics::jointTypeFromName("ankle"), JointType::kAnkle);
   EXPECT_EQ(kinematics::jointTypeName(JointType::kSubtalar), "subtalar");
   EXPECT_EQ(kinematics::coordinateNames(JointType::kAnkle).angles[0], "dorsiflexion");
   EXPECT_EQ(kinematics::coordinateNames(JointType::kElbow).angles[2], "pronation");
   EXPECT_EQ(kinematics::coordinateNames(JointType::kKnee).translations[1], "superior");
-  EXPECT_THROW_WITH(kinematics::jointTypeFromName("glenohumeral"), "knee, ankle, subtalar, elbow");
+  EXPECT_EQ(kinematics::jointTypeFromName("glenohumeral"), JointType::kGlenohumeral);
+  EXPECT_EQ(kinematics::coordinateNames(JointType::kGlenohumeral).angles[1], "elevation");
+  EXPECT_THROW_WITH(kinematics::jointTypeFromName("radioulnar"),
+                    "knee, ankle, subtalar, elbow, glenohumeral");
 }
