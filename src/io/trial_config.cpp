@@ -1,5 +1,6 @@
 #include "fluoro_tracker/io/trial_config.h"
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -126,19 +127,43 @@ constraints::ContactSettings readContactSettings(const YAML::Node& joint,
   return c;
 }
 
-// A joint's `ligaments:` section; absent: springs disabled.
+// The `ligaments:` keys of a joint type's six coordinates: its angles in degrees, then x, y, z
+// in millimetres (the knee's: flexion_deg, adduction_deg, internal_rotation_deg, x_mm, ...).
+std::array<std::string, 6> ligamentKeys(kinematics::JointType type) {
+  const auto& angles = kinematics::coordinateNames(type).angles;
+  const auto& knee = constraints::LigamentSettings::coordinateNames();
+  return {angles[0] + "_deg", angles[1] + "_deg", angles[2] + "_deg", knee[3], knee[4], knee[5]};
+}
+
+// Bounds on the type's first angle <-> on the knee's flexion, which the springs act on.
+constraints::CoordinateBounds firstAngleBounds(kinematics::JointType type,
+                                               const constraints::CoordinateBounds& bounds) {
+  if (kinematics::firstAngleSign(type) > 0.0) return bounds;
+  return {-bounds.upper, -bounds.lower};
+}
+
+// A joint's `ligaments:` section, in the joint type's coordinates; absent: springs disabled.
+// A knee's unlisted bounds are the dissertation's defaults, another type's are free.
 constraints::LigamentSettings readLigamentSettings(const YAML::Node& joint,
-                                                   const std::string& context) {
+                                                   const std::string& context,
+                                                   kinematics::JointType type) {
   constraints::LigamentSettings l;
   const YAML::Node node = joint["ligaments"];
   if (!node) {
     l.enabled = false;
     return l;
   }
+  if (type == kinematics::JointType::kGlenohumeral) {
+    throw InputError(context +
+                     ": ligament springs are not available for glenohumeral joints (they act on "
+                     "joint coordinates of the Grood & Suntay kind)");
+  }
+  if (type != kinematics::JointType::kKnee) l.bounds = {};
   const YamlSection section(node, context + ".ligaments");
-  const auto& names = constraints::LigamentSettings::coordinateNames();
-  section.allowOnly({"enabled", names[0], names[1], names[2], names[3], names[4], names[5],
-                     "stiffness_per_deg", "stiffness_per_mm", "bundles"});
+  const auto names = ligamentKeys(type);
+  section.allowOnly({"enabled", names[0].c_str(), names[1].c_str(), names[2].c_str(),
+                     names[3].c_str(), names[4].c_str(), names[5].c_str(), "stiffness_per_deg",
+                     "stiffness_per_mm", "bundles"});
   section.read("enabled", &l.enabled);
   for (int k = 0; k < 6; ++k) {
     std::vector<double> bounds;
@@ -149,6 +174,7 @@ constraints::LigamentSettings readLigamentSettings(const YAML::Node& joint,
                        " needs [lower, upper] (.inf or -.inf for none)");
     }
     l.bounds[k] = {bounds[0], bounds[1]};
+    if (k == 0) l.bounds[k] = firstAngleBounds(type, l.bounds[k]);
   }
   section.read("stiffness_per_deg", &l.stiffness_per_deg);
   section.read("stiffness_per_mm", &l.stiffness_per_mm);
@@ -440,18 +466,13 @@ TrialConfig loadTrialConfig(const std::string& path) {
       } catch (const InputError& e) {
         throw InputError(context + ": " + e.what());
       }
-      if (type != kinematics::JointType::kKnee && j["ligaments"]) {
-        throw InputError(context +
-                         ": ligament springs are available for knee joints only (their "
-                         "bounds are in the knee's coordinates)");
-      }
       for (const auto& bone : {joint.parent, joint.child}) {
         if (!names.count(bone)) {
           throw InputError(context + ": bone '" + bone + "' is not listed under 'bones'");
         }
       }
       joint.contact = readContactSettings(j, context);
-      joint.ligaments = readLigamentSettings(j, context);
+      joint.ligaments = readLigamentSettings(j, context, type);
       if (j["side"]) {
         try {
           joint.side = kinematics::sideFromName(required<std::string>(j, "side", context));
@@ -532,34 +553,42 @@ void saveTrialConfig(const std::string& path, const TrialConfig& config) {
         out << YAML::EndMap;
       }
       out << YAML::EndMap;
-      const constraints::LigamentSettings& l = joint.ligaments;
-      out << YAML::Key << "ligaments" << YAML::Value << YAML::BeginMap;
-      out << YAML::Key << "enabled" << YAML::Value << l.enabled;
-      for (int k = 0; k < 6; ++k) {
-        out << YAML::Key << constraints::LigamentSettings::coordinateNames()[k] << YAML::Value
-            << YAML::Flow << std::vector<double>{l.bounds[k].lower, l.bounds[k].upper};
-      }
-      out << YAML::Key << "stiffness_per_deg" << YAML::Value << l.stiffness_per_deg;
-      out << YAML::Key << "stiffness_per_mm" << YAML::Value << l.stiffness_per_mm;
-      if (!l.bundles.empty()) {
-        out << YAML::Key << "bundles" << YAML::Value << YAML::BeginSeq;
-        for (const auto& b : l.bundles) {
-          const auto mm = [](const Eigen::Vector3d& m) {
-            return std::vector<double>{1e3 * m.x(), 1e3 * m.y(), 1e3 * m.z()};
-          };
-          out << YAML::BeginMap;
-          out << YAML::Key << "name" << YAML::Value << b.name;
-          out << YAML::Key << "parent_insertion_mm" << YAML::Value << YAML::Flow
-              << mm(b.parent_insertion_m);
-          out << YAML::Key << "child_insertion_mm" << YAML::Value << YAML::Flow
-              << mm(b.child_insertion_m);
-          out << YAML::Key << "slack_length_mm" << YAML::Value << 1e3 * b.slack_length_m;
-          out << YAML::Key << "stiffness_per_mm" << YAML::Value << b.stiffness_per_mm;
-          out << YAML::EndMap;
+      const kinematics::JointType type = kinematics::jointTypeFromName(joint.type);
+      // A glenohumeral joint takes no springs (readLigamentSettings).
+      if (type != kinematics::JointType::kGlenohumeral) {
+        const constraints::LigamentSettings& l = joint.ligaments;
+        out << YAML::Key << "ligaments" << YAML::Value << YAML::BeginMap;
+        out << YAML::Key << "enabled" << YAML::Value << l.enabled;
+        const auto names = ligamentKeys(type);
+        for (int k = 0; k < 6; ++k) {
+          // The sign change of the first angle is its own inverse.
+          const constraints::CoordinateBounds b =
+              k == 0 ? firstAngleBounds(type, l.bounds[k]) : l.bounds[k];
+          out << YAML::Key << names[k] << YAML::Value << YAML::Flow
+              << std::vector<double>{b.lower, b.upper};
         }
-        out << YAML::EndSeq;
+        out << YAML::Key << "stiffness_per_deg" << YAML::Value << l.stiffness_per_deg;
+        out << YAML::Key << "stiffness_per_mm" << YAML::Value << l.stiffness_per_mm;
+        if (!l.bundles.empty()) {
+          out << YAML::Key << "bundles" << YAML::Value << YAML::BeginSeq;
+          for (const auto& b : l.bundles) {
+            const auto mm = [](const Eigen::Vector3d& m) {
+              return std::vector<double>{1e3 * m.x(), 1e3 * m.y(), 1e3 * m.z()};
+            };
+            out << YAML::BeginMap;
+            out << YAML::Key << "name" << YAML::Value << b.name;
+            out << YAML::Key << "parent_insertion_mm" << YAML::Value << YAML::Flow
+                << mm(b.parent_insertion_m);
+            out << YAML::Key << "child_insertion_mm" << YAML::Value << YAML::Flow
+                << mm(b.child_insertion_m);
+            out << YAML::Key << "slack_length_mm" << YAML::Value << 1e3 * b.slack_length_m;
+            out << YAML::Key << "stiffness_per_mm" << YAML::Value << b.stiffness_per_mm;
+            out << YAML::EndMap;
+          }
+          out << YAML::EndSeq;
+        }
+        out << YAML::EndMap;
       }
-      out << YAML::EndMap;
       out << YAML::EndMap;
     }
     out << YAML::EndSeq;

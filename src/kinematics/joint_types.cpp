@@ -102,12 +102,16 @@ const JointCoordinateNames& coordinateNames(JointType type) {
   return conventionOf(type).names;
 }
 
-KneeCoordinates inJointConvention(JointType type, const KneeCoordinates& knee) {
+double firstAngleSign(JointType type) {
   if (type == JointType::kGlenohumeral) {
     throw InputError("glenohumeral coordinates come from the bones' poses, not the knee's");
   }
+  return conventionOf(type).first_angle_sign;
+}
+
+KneeCoordinates inJointConvention(JointType type, const KneeCoordinates& knee) {
   KneeCoordinates out = knee;
-  out.flexion_rad *= conventionOf(type).first_angle_sign;
+  out.flexion_rad *= firstAngleSign(type);
   return out;
 }
 

@@ -54,6 +54,10 @@ const JointCoordinateNames& coordinateNames(JointType type);
 // knee's where those are singular, with the humerus' long axis along the scapula's Z).
 KneeCoordinates inJointConvention(JointType type, const KneeCoordinates& knee);
 
+// For the types of the Grood & Suntay kind: their first angle is this times the knee's flexion
+// (+1 or -1); their other coordinates are the knee's. Throws InputError for glenohumeral.
+double firstAngleSign(JointType type);
+
 // Any type's coordinates (the three angles, then the three translations, in the fields of
 // KneeCoordinates in that order) from the two anatomical frames' poses (any common frame).
 KneeCoordinates jointCoordinates(JointType type, const geometry::Pose& proximal,

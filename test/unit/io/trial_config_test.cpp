@@ -218,7 +218,7 @@ TEST(TrialConfig, ContactSectionIsCheckedAndMissingMeansDisabled) {
   EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("box.yaml")), "3 numbers");
 }
 
-TEST(TrialConfig, JointTypesAreCheckedAndOnlyKneesTakeLigaments) {
+TEST(TrialConfig, JointTypesAreCheckedAndTakeLigamentsInTheirOwnCoordinates) {
   TempDir dir;
   const std::string bones =
       "bones:\n  - {name: tibia, mesh: t.stl}\n  - {name: talus, mesh: a.stl}\n";
@@ -232,11 +232,41 @@ TEST(TrialConfig, JointTypesAreCheckedAndOnlyKneesTakeLigaments) {
                               "joints:\n  - {name: hip, parent: tibia, child: talus, "
                               "type: hip}\n");
   EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("hip.yaml")), "joint type 'hip'");
+  // An ankle's bounds are named and signed as its own coordinates (dorsiflexion is the knee's
+  // flexion reversed); the springs act on the knee's, so they are stored so. Unlisted bounds
+  // are free (the dissertation's defaults are a knee's).
   test_support::writeText(dir.file("springs.yaml"),
                           bones +
                               "joints:\n  - {name: ankle, parent: tibia, child: talus, "
-                              "type: ankle, ligaments: {}}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("springs.yaml")), "knee joints only");
+                              "type: ankle, ligaments: {dorsiflexion_deg: [-40, 25], "
+                              "inversion_deg: [-10, 15], z_mm: [-2, 3]}}\n");
+  const io::TrialConfig ankle_springs = io::loadTrialConfig(dir.file("springs.yaml"));
+  const constraints::LigamentSettings& l = ankle_springs.joints[0].ligaments;
+  EXPECT_TRUE(l.enabled);
+  EXPECT_DOUBLE_EQ(l.bounds[0].lower, -25.0);
+  EXPECT_DOUBLE_EQ(l.bounds[0].upper, 40.0);
+  EXPECT_DOUBLE_EQ(l.bounds[1].lower, -10.0);
+  EXPECT_DOUBLE_EQ(l.bounds[1].upper, 15.0);
+  EXPECT_TRUE(std::isinf(l.bounds[2].lower) && std::isinf(l.bounds[2].upper));
+  EXPECT_DOUBLE_EQ(l.bounds[5].upper, 3.0);
+  // Saved in the ankle's own terms and read back the same.
+  io::saveTrialConfig(dir.file("saved.yaml"), ankle_springs);
+  EXPECT_NE(test_support::readText(dir.file("saved.yaml")).find("dorsiflexion_deg"),
+            std::string::npos);
+  const auto& reread = io::loadTrialConfig(dir.file("saved.yaml")).joints[0].ligaments;
+  EXPECT_DOUBLE_EQ(reread.bounds[0].lower, -25.0);
+  EXPECT_DOUBLE_EQ(reread.bounds[0].upper, 40.0);
+  test_support::writeText(dir.file("kneekey.yaml"),
+                          bones +
+                              "joints:\n  - {name: ankle, parent: tibia, child: talus, "
+                              "type: ankle, ligaments: {flexion_deg: [0, 1]}}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("kneekey.yaml")), "unknown key 'flexion_deg'");
+  test_support::writeText(dir.file("shoulder.yaml"),
+                          bones +
+                              "joints:\n  - {name: shoulder, parent: tibia, child: talus, "
+                              "type: glenohumeral, ligaments: {}}\n");
+  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("shoulder.yaml")),
+                    "not available for glenohumeral");
 }
 
 TEST(TrialConfig, BadYamlNamesFileKeyAndLine) {

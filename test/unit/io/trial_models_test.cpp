@@ -58,6 +58,19 @@ TEST(TrialModels, BuildsImageModelsAndContactFromTheArticularMesh) {
   io::TrialConfig ankle = kneeTrial(dir, false);
   ankle.joints[0].type = "ankle";
   EXPECT_EQ(io::loadTrialModels(ankle).joints[0].type, kinematics::JointType::kAnkle);
+  // Its springs act on dorsiflexion as stored (the knee's flexion bounds, reversed, as
+  // loadTrialConfig stores an ankle's dorsiflexion_deg: [-40, 25]).
+  ankle.joints[0].ligaments = constraints::LigamentSettings();
+  ankle.joints[0].ligaments.bounds = {};
+  ankle.joints[0].ligaments.bounds[0] = {-25.0, 40.0};
+  const registration::JointModel ankle_joint = io::loadTrialModels(ankle).joints[0];
+  const auto turned = [](double deg) {
+    return geometry::makePose(geometry::rotationZ(deg * M_PI / 180.0), Eigen::Vector3d::Zero());
+  };
+  EXPECT_NEAR(ankle_joint.reportedCoordinates(geometry::Pose::Identity(), turned(30.0)).flexion_rad,
+              30.0 * M_PI / 180.0, 1e-12);
+  EXPECT_NEAR(ankle_joint.envelopeViolation(geometry::Pose::Identity(), turned(30.0)), 5.0, 1e-9);
+  EXPECT_EQ(ankle_joint.envelopeViolation(geometry::Pose::Identity(), turned(-30.0)), 0.0);
   // A shoulder's joint reports the ISB's Y-X-Y angles (kinematics::jointCoordinates).
   io::TrialConfig shoulder = kneeTrial(dir, false);
   shoulder.joints[0].type = "glenohumeral";
