@@ -220,27 +220,24 @@ TEST(TrialConfig, ContactSectionIsCheckedAndMissingMeansDisabled) {
 
 TEST(TrialConfig, JointTypesAreCheckedAndTakeLigamentsInTheirOwnCoordinates) {
   TempDir dir;
-  const std::string bones =
-      "bones:\n  - {name: tibia, mesh: t.stl}\n  - {name: talus, mesh: a.stl}\n";
-  test_support::writeText(dir.file("ankle.yaml"),
-                          bones +
-                              "joints:\n  - {name: ankle, parent: tibia, child: talus, "
-                              "type: ankle, side: left}\n");
-  EXPECT_EQ(io::loadTrialConfig(dir.file("ankle.yaml")).joints[0].type, "ankle");
-  test_support::writeText(dir.file("hip.yaml"),
-                          bones +
-                              "joints:\n  - {name: hip, parent: tibia, child: talus, "
-                              "type: hip}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("hip.yaml")), "joint type 'hip'");
+  // A trial of a tibia and a talus with one joint between them, written as `file`.
+  const auto trial = [&](const std::string& file, const std::string& joint) {
+    test_support::writeText(dir.file(file),
+                            "bones:\n  - {name: tibia, mesh: t.stl}\n  - {name: talus, mesh: "
+                            "a.stl}\njoints:\n  - {name: j, parent: tibia, child: talus, " +
+                                joint + "}\n");
+    return dir.file(file);
+  };
+  EXPECT_EQ(io::loadTrialConfig(trial("ankle.yaml", "type: ankle, side: left")).joints[0].type,
+            "ankle");
+  EXPECT_THROW_WITH(io::loadTrialConfig(trial("hip.yaml", "type: hip")), "joint type 'hip'");
   // An ankle's bounds are named and signed as its own coordinates (dorsiflexion is the knee's
   // flexion reversed); the springs act on the knee's, so they are stored so. Unlisted bounds
   // are free (the dissertation's defaults are a knee's).
-  test_support::writeText(dir.file("springs.yaml"),
-                          bones +
-                              "joints:\n  - {name: ankle, parent: tibia, child: talus, "
-                              "type: ankle, ligaments: {dorsiflexion_deg: [-40, 25], "
-                              "inversion_deg: [-10, 15], z_mm: [-2, 3]}}\n");
-  const io::TrialConfig ankle_springs = io::loadTrialConfig(dir.file("springs.yaml"));
+  const io::TrialConfig ankle_springs = io::loadTrialConfig(
+      trial("springs.yaml",
+            "type: ankle, ligaments: {dorsiflexion_deg: [-40, 25], inversion_deg: [-10, 15], "
+            "z_mm: [-2, 3]}"));
   const constraints::LigamentSettings& l = ankle_springs.joints[0].ligaments;
   EXPECT_TRUE(l.enabled);
   EXPECT_DOUBLE_EQ(l.bounds[0].lower, -25.0);
@@ -256,17 +253,12 @@ TEST(TrialConfig, JointTypesAreCheckedAndTakeLigamentsInTheirOwnCoordinates) {
   const auto& reread = io::loadTrialConfig(dir.file("saved.yaml")).joints[0].ligaments;
   EXPECT_DOUBLE_EQ(reread.bounds[0].lower, -25.0);
   EXPECT_DOUBLE_EQ(reread.bounds[0].upper, 40.0);
-  test_support::writeText(dir.file("kneekey.yaml"),
-                          bones +
-                              "joints:\n  - {name: ankle, parent: tibia, child: talus, "
-                              "type: ankle, ligaments: {flexion_deg: [0, 1]}}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("kneekey.yaml")), "unknown key 'flexion_deg'");
-  test_support::writeText(dir.file("shoulder.yaml"),
-                          bones +
-                              "joints:\n  - {name: shoulder, parent: tibia, child: talus, "
-                              "type: glenohumeral, ligaments: {}}\n");
-  EXPECT_THROW_WITH(io::loadTrialConfig(dir.file("shoulder.yaml")),
-                    "not available for glenohumeral");
+  EXPECT_THROW_WITH(
+      io::loadTrialConfig(trial("kneekey.yaml", "type: ankle, ligaments: {flexion_deg: [0, 1]}")),
+      "unknown key 'flexion_deg'");
+  EXPECT_THROW_WITH(
+      io::loadTrialConfig(trial("shoulder.yaml", "type: glenohumeral, ligaments: {}")),
+      "not available for glenohumeral");
 }
 
 TEST(TrialConfig, BadYamlNamesFileKeyAndLine) {
