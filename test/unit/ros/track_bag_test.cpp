@@ -3,7 +3,6 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
-#include <sstream>
 
 #include "../test_support.h"
 #include "fluoro_tracker/io/jts_file.h"
@@ -60,10 +59,7 @@ int runTrackBag(const std::string& args, std::string* output) {
                           "/track_bag_test_" + std::to_string(::getpid()) + ".log";
   const int status =
       std::system((std::string(TRACK_BAG_EXECUTABLE) + " " + args + " > " + log + " 2>&1").c_str());
-  std::ifstream in(log);
-  std::stringstream text;
-  text << in.rdbuf();
-  *output = text.str();
+  *output = test_support::readText(log);
   std::remove(log.c_str());
   return WEXITSTATUS(status);
 }
