@@ -153,10 +153,11 @@ constraints::LigamentSettings readLigamentSettings(const YAML::Node& joint,
     l.enabled = false;
     return l;
   }
-  if (type == kinematics::JointType::kGlenohumeral) {
-    throw InputError(context +
-                     ": ligament springs are not available for glenohumeral joints (they act on "
-                     "joint coordinates of the Grood & Suntay kind)");
+  if (!kinematics::hasKneeCoordinates(type)) {
+    throw InputError(context + ": ligament springs are not available for " +
+                     kinematics::jointTypeName(type) +
+                     " joints (they act on joint coordinates of the knee's axes: the proximal "
+                     "bone's Z, the distal bone's Y)");
   }
   if (type != kinematics::JointType::kKnee) l.bounds = {};
   const YamlSection section(node, context + ".ligaments");
@@ -554,8 +555,8 @@ void saveTrialConfig(const std::string& path, const TrialConfig& config) {
       }
       out << YAML::EndMap;
       const kinematics::JointType type = kinematics::jointTypeFromName(joint.type);
-      // A glenohumeral joint takes no springs (readLigamentSettings).
-      if (type != kinematics::JointType::kGlenohumeral) {
+      // Glenohumeral and patellofemoral joints take no springs (readLigamentSettings).
+      if (kinematics::hasKneeCoordinates(type)) {
         const constraints::LigamentSettings& l = joint.ligaments;
         out << YAML::Key << "ligaments" << YAML::Value << YAML::BeginMap;
         out << YAML::Key << "enabled" << YAML::Value << l.enabled;

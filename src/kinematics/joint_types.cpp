@@ -12,11 +12,13 @@ struct Convention {
   JointType type;
   const char* name;
   JointCoordinateNames names;
-  double first_angle_sign;  // relative to the knee's flexion (the others keep the knee's signs)
+  // Relative to the knee's flexion (the others keep the knee's signs); 0: not the knee's
+  // coordinates of the same frames (hasKneeCoordinates).
+  double first_angle_sign;
 };
 
-const std::array<Convention, 5>& conventions() {
-  static const std::array<Convention, 5> table = {{
+const std::array<Convention, 8>& conventions() {
+  static const std::array<Convention, 8> table = {{
       {JointType::kKnee,
        "knee",
        {{"flexion", "adduction", "internal_rotation"}, {"anterior", "superior", "lateral"}},
@@ -35,11 +37,24 @@ const std::array<Convention, 5>& conventions() {
        "elbow",
        {{"flexion", "varus", "pronation"}, {"anterior", "superior", "lateral"}},
        -1.0},
+      {JointType::kRadiohumeral,
+       "radiohumeral",
+       {{"flexion", "varus", "pronation"}, {"anterior", "superior", "lateral"}},
+       -1.0},
+      {JointType::kRadioulnar,
+       "radioulnar",
+       {{"flexion", "varus", "pronation"}, {"anterior", "superior", "lateral"}},
+       -1.0},
+      // e3 is the patella's X: see patellaTurn.
+      {JointType::kPatellofemoral,
+       "patellofemoral",
+       {{"flexion", "lateral_tilt", "medial_rotation"}, {"distal", "anterior", "lateral"}},
+       0.0},
       // Not of the Grood & Suntay kind: see glenohumeralCoordinates.
       {JointType::kGlenohumeral,
        "glenohumeral",
        {{"plane_of_elevation", "elevation", "axial_rotation"}, {"anterior", "superior", "lateral"}},
-       1.0},
+       0.0},
   }};
   return table;
 }
@@ -51,17 +66,27 @@ const Convention& conventionOf(JointType type) {
   return conventions().front();
 }
 
+// Turns a frame -90 deg about its Z: its Y becomes the former X. The patellofemoral coordinates
+// are the knee's of the femur and patella turned so (e3 then the patella's anterior axis); the
+// turn commutes with the left side's mirror through the X-Y plane.
+const geometry::Pose& patellaTurn() {
+  static const geometry::Pose turn =
+      geometry::makePose(geometry::rotationZ(-M_PI / 2.0), Eigen::Vector3d::Zero());
+  return turn;
+}
+
+// The mirror image through the sagittal plane (X-Y): a left joint as a right one, and back.
+geometry::Pose mirroredThroughSagittalPlane(const geometry::Pose& relative) {
+  const Eigen::Matrix3d mirror = Eigen::Vector3d(1.0, 1.0, -1.0).asDiagonal();
+  return geometry::makePose(mirror * relative.linear() * mirror, mirror * relative.translation());
+}
+
 // ISB Y-X-Y: r = Ry(a) Rx(b) Ry(g), so r(1,1) = cos b, r(0,1) = sin a sin b,
 // r(2,1) = cos a sin b, r(1,0) = sin b sin g, r(1,2) = -sin b cos g; b is taken <= 0.
 KneeCoordinates glenohumeralCoordinates(const geometry::Pose& scapula,
                                         const geometry::Pose& humerus, Side side) {
   geometry::Pose relative = scapula.inverse() * humerus;
-  if (side == Side::kLeft) {
-    // The mirror image through the sagittal plane is a right shoulder.
-    const Eigen::Matrix3d mirror = Eigen::Vector3d(1.0, 1.0, -1.0).asDiagonal();
-    relative =
-        geometry::makePose(mirror * relative.linear() * mirror, mirror * relative.translation());
-  }
+  if (side == Side::kLeft) relative = mirroredThroughSagittalPlane(relative);
   const Eigen::Matrix3d r = relative.linear();
   KneeCoordinates out;
   const double sin_b = -std::hypot(r(0, 1), r(2, 1));  // b in [-pi, 0]
@@ -90,8 +115,7 @@ JointType jointTypeFromName(const std::string& name) {
     if (name == c.name) return c.type;
     accepted += (accepted.empty() ? "" : ", ") + std::string(c.name);
   }
-  throw InputError("joint type '" + name + "' is not one of " + accepted +
-                   " (radioulnar and patellofemoral systems are not available)");
+  throw InputError("joint type '" + name + "' is not one of " + accepted);
 }
 
 std::string jointTypeName(JointType type) {
@@ -102,9 +126,14 @@ const JointCoordinateNames& coordinateNames(JointType type) {
   return conventionOf(type).names;
 }
 
+bool hasKneeCoordinates(JointType type) {
+  return conventionOf(type).first_angle_sign != 0.0;
+}
+
 double firstAngleSign(JointType type) {
-  if (type == JointType::kGlenohumeral) {
-    throw InputError("glenohumeral coordinates come from the bones' poses, not the knee's");
+  if (!hasKneeCoordinates(type)) {
+    throw InputError(jointTypeName(type) +
+                     " coordinates come from the bones' poses, not the knee's");
   }
   return conventionOf(type).first_angle_sign;
 }
@@ -118,7 +147,28 @@ KneeCoordinates inJointConvention(JointType type, const KneeCoordinates& knee) {
 KneeCoordinates jointCoordinates(JointType type, const geometry::Pose& proximal,
                                  const geometry::Pose& distal, Side side) {
   if (type == JointType::kGlenohumeral) return glenohumeralCoordinates(proximal, distal, side);
+  if (type == JointType::kPatellofemoral) {
+    return kneeCoordinates(proximal * patellaTurn(), distal * patellaTurn(), side);
+  }
   return inJointConvention(type, kneeCoordinates(proximal, distal, side));
+}
+
+geometry::Pose distalFromJointCoordinates(JointType type, const geometry::Pose& proximal,
+                                          const KneeCoordinates& c, Side side) {
+  if (type == JointType::kGlenohumeral) {
+    geometry::Pose relative = geometry::makePose(geometry::rotationY(c.flexion_rad) *
+                                                     geometry::rotationX(c.adduction_rad) *
+                                                     geometry::rotationY(c.internal_rotation_rad),
+                                                 Eigen::Vector3d(c.x_m, c.y_m, c.z_m));
+    if (side == Side::kLeft) relative = mirroredThroughSagittalPlane(relative);
+    return proximal * relative;
+  }
+  if (type == JointType::kPatellofemoral) {
+    return tibiaFromKneeCoordinates(proximal * patellaTurn(), c, side) * patellaTurn().inverse();
+  }
+  KneeCoordinates knee = c;
+  knee.flexion_rad *= firstAngleSign(type);  // the sign is its own inverse
+  return tibiaFromKneeCoordinates(proximal, knee, side);
 }
 
 }  // namespace kinematics

@@ -36,7 +36,7 @@ struct JointConfig {
   std::string name;
   std::string parent;
   std::string child;
-  std::string type = "knee";  // knee, ankle, subtalar, elbow, glenohumeral (JointType)
+  std::string type = "knee";  // a kinematics::JointType's name (jointTypeFromName)
   kinematics::Side side = kinematics::Side::kRight;
   // Articular contact between the parent's surface and the child's (articular_mesh, or the
   // image mesh when none is given). A joint without a `contact:` section has it disabled.

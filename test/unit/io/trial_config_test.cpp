@@ -259,6 +259,15 @@ TEST(TrialConfig, JointTypesAreCheckedAndTakeLigamentsInTheirOwnCoordinates) {
   EXPECT_THROW_WITH(
       io::loadTrialConfig(trial("shoulder.yaml", "type: glenohumeral, ligaments: {}")),
       "not available for glenohumeral");
+  EXPECT_THROW_WITH(
+      io::loadTrialConfig(trial("patella.yaml", "type: patellofemoral, ligaments: {}")),
+      "not available for patellofemoral");
+  // The forearm's joints take the elbow's names: pronation about the radius' long axis.
+  const io::TrialConfig forearm = io::loadTrialConfig(
+      trial("forearm.yaml", "type: radioulnar, ligaments: {pronation_deg: [-80, 75]}"));
+  EXPECT_EQ(forearm.joints[0].type, "radioulnar");
+  EXPECT_DOUBLE_EQ(forearm.joints[0].ligaments.bounds[2].lower, -80.0);
+  EXPECT_DOUBLE_EQ(forearm.joints[0].ligaments.bounds[2].upper, 75.0);
 }
 
 TEST(TrialConfig, BadYamlNamesFileKeyAndLine) {

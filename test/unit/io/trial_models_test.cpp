@@ -74,6 +74,8 @@ TEST(TrialModels, BuildsImageModelsAndContactFromTheArticularMesh) {
   // A shoulder's joint reports the ISB's Y-X-Y angles (kinematics::jointCoordinates).
   io::TrialConfig shoulder = kneeTrial(dir, false);
   shoulder.joints[0].type = "glenohumeral";
+  EXPECT_THROW_WITH(io::loadTrialModels(shoulder), "not available for glenohumeral");
+  shoulder.joints[0].ligaments.enabled = false;
   const registration::JointModel glenohumeral = io::loadTrialModels(shoulder).joints[0];
   EXPECT_EQ(glenohumeral.type, kinematics::JointType::kGlenohumeral);
   const geometry::Pose humerus = geometry::makePose(
@@ -84,8 +86,8 @@ TEST(TrialModels, BuildsImageModelsAndContactFromTheArticularMesh) {
   EXPECT_NEAR(reported.adduction_rad, -0.7, 1e-9);
   EXPECT_NEAR(reported.internal_rotation_rad, 0.2, 1e-9);
   io::TrialConfig unknown = kneeTrial(dir, false);
-  unknown.joints[0].type = "radioulnar";
-  EXPECT_THROW_WITH(io::loadTrialModels(unknown), "radioulnar");
+  unknown.joints[0].type = "hip";
+  EXPECT_THROW_WITH(io::loadTrialModels(unknown), "joint type 'hip'");
 }
 
 TEST(TrialModels, AnOpenArticularSurfaceIsRejectedNamingTheFile) {

@@ -13,6 +13,15 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
+// The types whose coordinates are the knee's of the same frames (up to the first angle's sign).
+constexpr JointType kKneeCoordinateTypes[] = {JointType::kKnee,         JointType::kAnkle,
+                                              JointType::kSubtalar,     JointType::kElbow,
+                                              JointType::kRadiohumeral, JointType::kRadioulnar};
+constexpr JointType kAllTypes[] = {JointType::kKnee,           JointType::kAnkle,
+                                   JointType::kSubtalar,       JointType::kElbow,
+                                   JointType::kRadiohumeral,   JointType::kRadioulnar,
+                                   JointType::kPatellofemoral, JointType::kGlenohumeral};
+
 // The distal segment's frame, turned by `rotation` (expressed in the proximal frame) from
 // coincidence with the proximal one, and offset 30 mm distally; both in ISB orientation (X
 // anterior, Y proximal, Z to the right).
@@ -36,22 +45,23 @@ TEST(JointTypes, SignsFollowTheirClinicalDefinitionsOnTheRight) {
   EXPECT_NEAR(clinical(JointType::kAnkle, front_up, Side::kRight).flexion_rad, 10.0 * kDeg, 1e-12);
   EXPECT_NEAR(clinical(JointType::kSubtalar, front_up, Side::kRight).flexion_rad, 10.0 * kDeg,
               1e-12);
-  EXPECT_NEAR(clinical(JointType::kElbow, front_up, Side::kRight).flexion_rad, 10.0 * kDeg, 1e-12);
+  for (JointType type : {JointType::kElbow, JointType::kRadiohumeral, JointType::kRadioulnar}) {
+    EXPECT_NEAR(clinical(type, front_up, Side::kRight).flexion_rad, 10.0 * kDeg, 1e-12)
+        << kinematics::jointTypeName(type);
+  }
   EXPECT_NEAR(clinical(JointType::kKnee, distal(geometry::rotationZ(-10.0 * kDeg)), Side::kRight)
                   .flexion_rad,
               10.0 * kDeg, 1e-12);
   // About +X (anterior) the distal segment's top tilts lateral (+Z on the right), its distal end
   // and sole medial: knee adduction (varus), inversion, elbow varus.
   const Pose distal_medial = distal(geometry::rotationX(5.0 * kDeg));
-  for (JointType type :
-       {JointType::kKnee, JointType::kAnkle, JointType::kSubtalar, JointType::kElbow}) {
+  for (JointType type : kKneeCoordinateTypes) {
     EXPECT_NEAR(clinical(type, distal_medial, Side::kRight).adduction_rad, 5.0 * kDeg, 1e-12)
         << kinematics::jointTypeName(type);
   }
   // About +Y the front (X) turns to -Z, medially on the right: internal rotation, pronation.
   const Pose front_medial = distal(geometry::rotationY(8.0 * kDeg));
-  for (JointType type :
-       {JointType::kKnee, JointType::kAnkle, JointType::kSubtalar, JointType::kElbow}) {
+  for (JointType type : kKneeCoordinateTypes) {
     EXPECT_NEAR(clinical(type, front_medial, Side::kRight).internal_rotation_rad, 8.0 * kDeg, 1e-12)
         << kinematics::jointTypeName(type);
   }
@@ -67,10 +77,9 @@ TEST(JointTypes, LeftMirrorsRight) {
   const Pose right = geometry::makePose(rotation, Eigen::Vector3d(0.002, -0.03, 0.001));
   const Pose left =
       geometry::makePose(mirror * rotation * mirror, mirror * Eigen::Vector3d(0.002, -0.03, 0.001));
-  for (JointType type :
-       {JointType::kKnee, JointType::kAnkle, JointType::kSubtalar, JointType::kElbow}) {
-    const auto r = clinical(type, right, Side::kRight);
-    const auto l = clinical(type, left, Side::kLeft);
+  for (JointType type : kAllTypes) {
+    const auto r = kinematics::jointCoordinates(type, Pose::Identity(), right, Side::kRight);
+    const auto l = kinematics::jointCoordinates(type, Pose::Identity(), left, Side::kLeft);
     EXPECT_NEAR(r.flexion_rad, l.flexion_rad, 1e-12);
     EXPECT_NEAR(r.adduction_rad, l.adduction_rad, 1e-12);
     EXPECT_NEAR(r.internal_rotation_rad, l.internal_rotation_rad, 1e-12);
@@ -78,6 +87,71 @@ TEST(JointTypes, LeftMirrorsRight) {
     EXPECT_NEAR(r.y_m, l.y_m, 1e-12);
     EXPECT_NEAR(r.z_m, l.z_m, 1e-12);
   }
+}
+
+// Every type: the distal frame built from coordinates, anywhere in space, on either side, gives
+// them back.
+TEST(JointTypes, EveryTypeRoundTripsThroughItsInverse) {
+  const Pose proximal = geometry::makePose(geometry::rotationZ(0.4) * geometry::rotationX(-0.2),
+                                           Eigen::Vector3d(0.1, 0.9, -0.3));
+  for (JointType type : kAllTypes) {
+    for (Side side : {Side::kRight, Side::kLeft}) {
+      for (double first_deg : {-20.0, 35.0, 110.0}) {
+        kinematics::KneeCoordinates c;
+        c.flexion_rad = first_deg * kDeg;
+        // Glenohumeral: an elevation away from 0, where the plane of elevation is defined.
+        c.adduction_rad = (type == JointType::kGlenohumeral ? -40.0 : 6.0) * kDeg;
+        c.internal_rotation_rad = -12.0 * kDeg;
+        c.x_m = 0.004;
+        c.y_m = -0.021;
+        c.z_m = 0.0025;
+        const Pose d = kinematics::distalFromJointCoordinates(type, proximal, c, side);
+        const auto back = kinematics::jointCoordinates(type, proximal, d, side);
+        const std::string what = kinematics::jointTypeName(type) + " " + std::to_string(first_deg);
+        EXPECT_NEAR(back.flexion_rad, c.flexion_rad, 1e-9) << what;
+        EXPECT_NEAR(back.adduction_rad, c.adduction_rad, 1e-9) << what;
+        EXPECT_NEAR(back.internal_rotation_rad, c.internal_rotation_rad, 1e-9) << what;
+        EXPECT_NEAR(back.x_m, c.x_m, 1e-12) << what;
+        EXPECT_NEAR(back.y_m, c.y_m, 1e-12) << what;
+        EXPECT_NEAR(back.z_m, c.z_m, 1e-12) << what;
+      }
+    }
+  }
+}
+
+// Patellofemoral (Bull et al. 2002), right side, from the movements that define its signs.
+TEST(JointTypes, PatellofemoralMovements) {
+  const auto pf = [](const Eigen::Matrix3d& rotation, const Eigen::Vector3d& offset) {
+    return kinematics::jointCoordinates(JointType::kPatellofemoral, Pose::Identity(),
+                                        geometry::makePose(rotation, offset), Side::kRight);
+  };
+  const Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  // About -Z the patella's distal pole (-Y) moves posterior (-X): flexion, as the tibia's.
+  EXPECT_LT((geometry::rotationZ(-10.0 * kDeg) * -Eigen::Vector3d::UnitY()).x(), 0.0);
+  const auto flexed = pf(geometry::rotationZ(-10.0 * kDeg), origin);
+  EXPECT_NEAR(flexed.flexion_rad, 10.0 * kDeg, 1e-12);
+  EXPECT_NEAR(flexed.adduction_rad, 0.0, 1e-12);
+  EXPECT_NEAR(flexed.internal_rotation_rad, 0.0, 1e-12);
+  // About -Y the anterior surface's normal (X) turns lateral (+Z on the right): lateral tilt.
+  EXPECT_GT((geometry::rotationY(-8.0 * kDeg) * Eigen::Vector3d::UnitX()).z(), 0.0);
+  const auto tilted = pf(geometry::rotationY(-8.0 * kDeg), origin);
+  EXPECT_NEAR(tilted.flexion_rad, 0.0, 1e-12);
+  EXPECT_NEAR(tilted.adduction_rad, 8.0 * kDeg, 1e-12);
+  EXPECT_NEAR(tilted.internal_rotation_rad, 0.0, 1e-12);
+  // About +X the distal pole (-Y) moves medially (-Z on the right): medial rotation.
+  EXPECT_LT((geometry::rotationX(6.0 * kDeg) * -Eigen::Vector3d::UnitY()).z(), 0.0);
+  const auto rotated = pf(geometry::rotationX(6.0 * kDeg), origin);
+  EXPECT_NEAR(rotated.flexion_rad, 0.0, 1e-12);
+  EXPECT_NEAR(rotated.adduction_rad, 0.0, 1e-12);
+  EXPECT_NEAR(rotated.internal_rotation_rad, 6.0 * kDeg, 1e-12);
+  // Unturned, 30 mm distal, 20 mm anterior and 4 mm lateral of the femur origin.
+  const auto moved = pf(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.02, -0.03, 0.004));
+  EXPECT_NEAR(moved.x_m, 0.03, 1e-12);
+  EXPECT_NEAR(moved.y_m, 0.02, 1e-12);
+  EXPECT_NEAR(moved.z_m, 0.004, 1e-12);
+  // Its e3 is not the patella's Y: the knee's coordinates of the same frames do not serve.
+  EXPECT_FALSE(kinematics::hasKneeCoordinates(JointType::kPatellofemoral));
+  EXPECT_THROW_WITH(kinematics::inJointConvention(JointType::kPatellofemoral, {}), "poses");
 }
 
 // Glenohumeral (ISB Y-X-Y): a humerus frame built from known angles and an offset, anywhere in
@@ -155,6 +229,13 @@ TEST(JointTypes, NamesAndUnknownTypes) {
   EXPECT_EQ(kinematics::coordinateNames(JointType::kKnee).translations[1], "superior");
   EXPECT_EQ(kinematics::jointTypeFromName("glenohumeral"), JointType::kGlenohumeral);
   EXPECT_EQ(kinematics::coordinateNames(JointType::kGlenohumeral).angles[1], "elevation");
-  EXPECT_THROW_WITH(kinematics::jointTypeFromName("radioulnar"),
-                    "knee, ankle, subtalar, elbow, glenohumeral");
+  EXPECT_EQ(kinematics::jointTypeFromName("radioulnar"), JointType::kRadioulnar);
+  EXPECT_EQ(kinematics::coordinateNames(JointType::kRadioulnar).angles[2], "pronation");
+  EXPECT_EQ(kinematics::jointTypeFromName("radiohumeral"), JointType::kRadiohumeral);
+  EXPECT_EQ(kinematics::jointTypeFromName("patellofemoral"), JointType::kPatellofemoral);
+  EXPECT_EQ(kinematics::coordinateNames(JointType::kPatellofemoral).angles[1], "lateral_tilt");
+  EXPECT_EQ(kinematics::coordinateNames(JointType::kPatellofemoral).translations[2], "lateral");
+  EXPECT_THROW_WITH(kinematics::jointTypeFromName("hip"),
+                    "knee, ankle, subtalar, elbow, radiohumeral, radioulnar, patellofemoral, "
+                    "glenohumeral");
 }
