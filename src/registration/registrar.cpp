@@ -13,6 +13,7 @@
 
 #include "fluoro_tracker/imaging/renderer.h"
 #include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/registration/compressed_residuals_cost.h"
 #include "fluoro_tracker/registration/contact_cost.h"
 #include "fluoro_tracker/registration/contour_distance_cost.h"
 #include "fluoro_tracker/registration/edge_to_contour_cost.h"
@@ -208,8 +209,9 @@ class EdgeOffsetPriorCost : public ceres::SizedCostFunction<1, 1> {
 // Per bone, the covariance of its pose from the solved increments: Ceres' (J^T J)^-1 of the
 // increment [w, t], scaled by the residual variance 2 cost / (residuals - parameters), then
 // carried to ROS's ordering: the origin o moves by t - [o - c]x w, the rotation by w.
+// `compressed_away`: residuals that Ceres does not count (CompressedResidualsCost).
 void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& summary,
-                         std::vector<std::array<double, 6>>& increments,
+                         int compressed_away, std::vector<std::array<double, 6>>& increments,
                          const std::vector<Eigen::Vector3d>& centres,
                          const std::vector<geometry::Pose>& poses,
                          const std::vector<int>& relative_parent, RegistrationResult* result) {
@@ -261,7 +263,8 @@ void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& 
   }
   const Eigen::MatrixXd inverse =
       eigen.eigenvectors() * inverse_values.asDiagonal() * eigen.eigenvectors().transpose();
-  const int dof = summary.num_residuals_reduced - summary.num_effective_parameters_reduced;
+  const int dof =
+      summary.num_residuals_reduced + compressed_away - summary.num_effective_parameters_reduced;
   const double variance = dof > 0 ? 2.0 * summary.final_cost / dof : 1.0;
   for (std::size_t b = 0; b < bones; ++b) {
     const double* block = increments[b].data();
@@ -733,8 +736,11 @@ Registrar::Solution Registrar::solveUnfinished(
         const std::vector<int> relative_parent = relativeParents(result.diverged);
         // Adds a cost over these blocks (`block_bones`: the bone whose increment each block is,
         // or -1), a parent-relative bone's block taken relative to its parent.
+        // Residuals the image terms' compression (CompressedResidualsCost) took out of Ceres'
+        // count, for the covariance's residual variance.
+        int compressed_away = 0;
         const auto add_block = [&](ceres::CostFunction* cost, std::vector<double*> blocks,
-                                   std::vector<int> block_bones) {
+                                   std::vector<int> block_bones, bool compress = false) {
           for (std::size_t k = 0; k < block_bones.size(); ++k) {
             const int b = block_bones[k];
             if (b < 0 || relative_parent[b] < 0) continue;
@@ -748,6 +754,11 @@ Registrar::Solution Registrar::solveUnfinished(
               blocks.push_back(increments[p].data());
               block_bones.push_back(p);
             }
+          }
+          if (compress) {
+            auto* compressed = new CompressedResidualsCost(cost);
+            compressed_away += compressed->represented() - compressed->num_residuals();
+            cost = compressed;
           }
           problem.AddResidualBlock(cost, nullptr, blocks);
         };
@@ -782,7 +793,7 @@ Registrar::Solution Registrar::solveUnfinished(
             add_block(
                 new ContourDistanceCost(&maps[v], std::move(points), std::move(offset_directions),
                                         centres[b], robust_scale, image_weight),
-                {increments[b].data(), offset}, {bone, -1});
+                {increments[b].data(), offset}, {bone, -1}, true);
             // The offset is a fraction of a pixel: held, it is free only once the contour is
             // that close (see edge_offset_hold).
             const EdgeOffsetPrior prior = prior_of(b, v);
@@ -802,7 +813,7 @@ Registrar::Solution Registrar::solveUnfinished(
               if (!pairs.empty()) {
                 add_block(new EdgeToContourCost(camera, std::move(pairs), centres[b], robust_scale,
                                                 settings_.reverse_term_weight * image_weight),
-                          {increments[b].data(), offset}, {bone, -1});
+                          {increments[b].data(), offset}, {bone, -1}, true);
               }
             }
           }
@@ -910,8 +921,8 @@ Registrar::Solution Registrar::solveUnfinished(
         const bool last_solve = finest && stage_index + 1 == schedule.size() &&
                                 (converged || outer + 1 == outer_iterations);
         if (settings_.compute_covariance && last_solve) {
-          estimateCovariances(&problem, summary, increments, centres, linearised, relative_parent,
-                              &result);
+          estimateCovariances(&problem, summary, compressed_away, increments, centres, linearised,
+                              relative_parent, &result);
         }
         if (converged) break;
       }
