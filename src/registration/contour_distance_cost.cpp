@@ -21,6 +21,7 @@ ContourDistanceCost::ContourDistanceCost(const imaging::EdgeMap* edge_map,
       robust_scale_(robust_scale_px),
       sqrt_weight_(std::sqrt(weight)) {
   set_num_residuals(static_cast<int>(points_.size()));
+  samples_.resize(points_.size());
   mutable_parameter_block_sizes()->push_back(6);
   mutable_parameter_block_sizes()->push_back(1);
 }
@@ -49,27 +50,46 @@ bool ContourDistanceCost::Evaluate(double const* const* parameters, double* resi
   double* jac = (jacobians != nullptr) ? jacobians[0] : nullptr;
   double* jac_offset = (jacobians != nullptr) ? jacobians[1] : nullptr;
   const double offset = parameters[1][0];
+  // Ceres evaluates the cost alone at a candidate step and, when it accepts the step, again
+  // with Jacobians at the same parameters: the edge map's samples are then those of the last
+  // evaluation.
+  const bool resample = !sampled_ || !std::equal(parameters[0], parameters[0] + 6, sampled_at_) ||
+                        offset != sampled_at_[6];
+  if (resample) {
+    std::copy(parameters[0], parameters[0] + 6, sampled_at_);
+    sampled_at_[6] = offset;
+    sampled_ = true;
+  } else if (jacobians == nullptr) {
+    for (std::size_t i = 0; i < points_.size(); ++i) residuals[i] = samples_[i].residual;
+    return true;
+  }
   for (std::size_t i = 0; i < points_.size(); ++i) {
     Eigen::Vector3d rotated;
     const Eigen::Vector3d pc = moved.toCamera(points_[i], &rotated);
-    double distance = 0.0;
-    double du = 0.0;
-    double dv = 0.0;
-    bool valid = pc.z() > 0.0;
-    if (valid) {
-      const double u = camera.fx() * pc.x() / pc.z() + camera.cx() + offset * normals_[i].x();
-      const double v = camera.fy() * pc.y() / pc.z() + camera.cy() + offset * normals_[i].y();
-      valid = edge_map_->sample(u, v, &distance, &du, &dv);
+    Sample& sample = samples_[i];
+    if (resample) {
+      double distance = 0.0;
+      sample.du = 0.0;
+      sample.dv = 0.0;
+      sample.valid = pc.z() > 0.0;
+      if (sample.valid) {
+        const double u = camera.fx() * pc.x() / pc.z() + camera.cx() + offset * normals_[i].x();
+        const double v = camera.fy() * pc.y() / pc.z() + camera.cy() + offset * normals_[i].y();
+        sample.valid = edge_map_->sample(u, v, &distance, &sample.du, &sample.dv);
+      }
+      sample.residual = sqrt_weight_ * robustResidual(distance, robust_scale_, &sample.slope);
     }
-    double slope = 0.0;
-    residuals[i] = sqrt_weight_ * robustResidual(distance, robust_scale_, &slope);
+    residuals[i] = sample.residual;
+    const double slope = sample.slope;
+    const double du = sample.du;
+    const double dv = sample.dv;
     if (jac_offset != nullptr) {
       jac_offset[i] =
-          valid ? sqrt_weight_ * slope * (du * normals_[i].x() + dv * normals_[i].y()) : 0.0;
+          sample.valid ? sqrt_weight_ * slope * (du * normals_[i].x() + dv * normals_[i].y()) : 0.0;
     }
     if (jac == nullptr) continue;
     double* row = jac + 6 * i;
-    if (!valid) {
+    if (!sample.valid) {
       std::fill(row, row + 6, 0.0);
       continue;
     }

@@ -19,7 +19,7 @@ namespace registration {
 // direction before it is compared, since the displayed edge of a real implant lies a fraction
 // of a pixel inside its geometric silhouette (metal that thins toward a sharp rim, detector
 // blur before a logarithmic display).
-// Analytic Jacobians.
+// Analytic Jacobians. Not thread-safe: it keeps the last evaluation's samples of the edge map.
 class ContourDistanceCost : public ceres::CostFunction {
  public:
   // `points_fixed`: contour points at the current pose T0, in the fixed frame. `centre`: the
@@ -37,6 +37,15 @@ class ContourDistanceCost : public ceres::CostFunction {
   static double robustResidual(double distance, double scale, double* derivative);
 
  private:
+  // One contour point's look-up in the edge map and its robustified residual.
+  struct Sample {
+    double residual = 0.0;
+    double slope = 0.0;  // d(residual)/d(distance), before the weight
+    double du = 0.0;     // the distance's gradient in the map
+    double dv = 0.0;
+    bool valid = false;  // inside the map and in front of the source
+  };
+
   const imaging::EdgeMap* edge_map_;
   std::vector<Eigen::Vector3d> points_;
   std::vector<Eigen::Vector2d> normals_;
@@ -44,6 +53,10 @@ class ContourDistanceCost : public ceres::CostFunction {
   geometry::Pose camera_from_fixed_;
   double robust_scale_;
   double sqrt_weight_;
+  // The last evaluation's samples and the parameters (increment, offset) they were taken at.
+  mutable std::vector<Sample> samples_;
+  mutable double sampled_at_[7] = {};
+  mutable bool sampled_ = false;
 };
 
 }  // namespace registration
