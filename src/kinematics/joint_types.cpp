@@ -18,33 +18,19 @@ struct Convention {
 };
 
 const std::array<Convention, 8>& conventions() {
+  // The translations of every Grood & Suntay kind, along e2, e3, e1.
+  const std::array<std::string, 3> along = {"anterior", "superior", "lateral"};
+  const JointCoordinateNames foot = {{"dorsiflexion", "inversion", "internal_rotation"}, along};
+  const JointCoordinateNames forearm = {{"flexion", "varus", "pronation"}, along};
   static const std::array<Convention, 8> table = {{
-      {JointType::kKnee,
-       "knee",
-       {{"flexion", "adduction", "internal_rotation"}, {"anterior", "superior", "lateral"}},
-       1.0},
+      {JointType::kKnee, "knee", {{"flexion", "adduction", "internal_rotation"}, along}, 1.0},
       // Dorsiflexion and elbow flexion turn the distal segment the other way about e1 from
       // knee flexion (its front up, or its distal end anterior).
-      {JointType::kAnkle,
-       "ankle",
-       {{"dorsiflexion", "inversion", "internal_rotation"}, {"anterior", "superior", "lateral"}},
-       -1.0},
-      {JointType::kSubtalar,
-       "subtalar",
-       {{"dorsiflexion", "inversion", "internal_rotation"}, {"anterior", "superior", "lateral"}},
-       -1.0},
-      {JointType::kElbow,
-       "elbow",
-       {{"flexion", "varus", "pronation"}, {"anterior", "superior", "lateral"}},
-       -1.0},
-      {JointType::kRadiohumeral,
-       "radiohumeral",
-       {{"flexion", "varus", "pronation"}, {"anterior", "superior", "lateral"}},
-       -1.0},
-      {JointType::kRadioulnar,
-       "radioulnar",
-       {{"flexion", "varus", "pronation"}, {"anterior", "superior", "lateral"}},
-       -1.0},
+      {JointType::kAnkle, "ankle", foot, -1.0},
+      {JointType::kSubtalar, "subtalar", foot, -1.0},
+      {JointType::kElbow, "elbow", forearm, -1.0},
+      {JointType::kRadiohumeral, "radiohumeral", forearm, -1.0},
+      {JointType::kRadioulnar, "radioulnar", forearm, -1.0},
       // e3 is the patella's X: see patellaTurn.
       {JointType::kPatellofemoral,
        "patellofemoral",
@@ -53,7 +39,7 @@ const std::array<Convention, 8>& conventions() {
       // Not of the Grood & Suntay kind: see glenohumeralCoordinates.
       {JointType::kGlenohumeral,
        "glenohumeral",
-       {{"plane_of_elevation", "elevation", "axial_rotation"}, {"anterior", "superior", "lateral"}},
+       {{"plane_of_elevation", "elevation", "axial_rotation"}, along},
        0.0},
   }};
   return table;
