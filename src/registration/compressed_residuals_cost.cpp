@@ -21,6 +21,7 @@ CompressedResidualsCost::CompressedResidualsCost(ceres::CostFunction* inner) : i
   for (const int size : inner_->parameter_block_sizes()) {
     inner_jacobians_.emplace_back(static_cast<std::size_t>(inner_->num_residuals() * size));
   }
+  for (auto& buffer : inner_jacobians_) inner_jacobian_pointers_.push_back(buffer.data());
 }
 
 bool CompressedResidualsCost::Evaluate(double const* const* parameters, double* residuals,
@@ -37,9 +38,9 @@ bool CompressedResidualsCost::Evaluate(double const* const* parameters, double* 
   }
   // Every block's Jacobian, also of blocks Ceres holds constant: R^T R = J^T J holds block by
   // block, so the free blocks' part is exact whichever are free.
-  std::vector<double*> inner_jacobians;
-  for (auto& buffer : inner_jacobians_) inner_jacobians.push_back(buffer.data());
-  if (!inner_->Evaluate(parameters, inner_residuals_.data(), inner_jacobians.data())) return false;
+  if (!inner_->Evaluate(parameters, inner_residuals_.data(), inner_jacobian_pointers_.data())) {
+    return false;
+  }
 
   const std::vector<int32_t>& sizes = inner_->parameter_block_sizes();
   // J column-major, so that each entry of J^T J and J^T r is a dot product of two contiguous

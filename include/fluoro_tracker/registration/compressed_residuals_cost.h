@@ -35,6 +35,7 @@ class CompressedResidualsCost : public ceres::CostFunction {
   int parameters_ = 0;  // P
   mutable std::vector<double> inner_residuals_;
   mutable std::vector<std::vector<double>> inner_jacobians_;  // per block, row-major
+  mutable std::vector<double*> inner_jacobian_pointers_;      // to each block's buffer
   mutable Eigen::MatrixXd stacked_;                           // all blocks, column-major
 };
 
