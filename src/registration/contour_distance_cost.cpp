@@ -19,7 +19,8 @@ ContourDistanceCost::ContourDistanceCost(const imaging::EdgeMap* edge_map,
       centre_(centre),
       camera_from_fixed_(edge_map->camera().worldFromCamera().inverse()),
       robust_scale_(robust_scale_px),
-      sqrt_weight_(std::sqrt(weight)) {
+      sqrt_weight_(std::sqrt(weight)),
+      sampled_at_({6, 1}) {
   set_num_residuals(static_cast<int>(points_.size()));
   samples_.resize(points_.size());
   mutable_parameter_block_sizes()->push_back(6);
@@ -53,13 +54,8 @@ bool ContourDistanceCost::Evaluate(double const* const* parameters, double* resi
   // Ceres evaluates the cost alone at a candidate step and, when it accepts the step, again
   // with Jacobians at the same parameters: the edge map's samples are then those of the last
   // evaluation.
-  const bool resample = !sampled_ || !std::equal(parameters[0], parameters[0] + 6, sampled_at_) ||
-                        offset != sampled_at_[6];
-  if (resample) {
-    std::copy(parameters[0], parameters[0] + 6, sampled_at_);
-    sampled_at_[6] = offset;
-    sampled_ = true;
-  } else if (jacobians == nullptr) {
+  const bool resample = sampled_at_.moved(parameters);
+  if (!resample && jacobians == nullptr) {
     for (std::size_t i = 0; i < points_.size(); ++i) residuals[i] = samples_[i].residual;
     return true;
   }

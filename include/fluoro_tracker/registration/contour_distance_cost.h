@@ -6,6 +6,7 @@
 
 #include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/imaging/edge_map.h"
+#include "fluoro_tracker/registration/evaluation_point.h"
 
 namespace fluoro_tracker {
 namespace registration {
@@ -55,8 +56,7 @@ class ContourDistanceCost : public ceres::CostFunction {
   double sqrt_weight_;
   // The last evaluation's samples and the parameters (increment, offset) they were taken at.
   mutable std::vector<Sample> samples_;
-  mutable double sampled_at_[7] = {};
-  mutable bool sampled_ = false;
+  mutable EvaluationPoint sampled_at_;
 };
 
 }  // namespace registration
