@@ -49,7 +49,8 @@ int main(int argc, char** argv) {
     total_ms.push_back(std::chrono::duration<double, std::milli>(t2 - t0).count());
   }
   // The silhouette mask in a crop around the mesh, as SilhouetteModel::contour renders it; a
-  // fine 200 x 400 grid (80,000 triangles of a few pixels each, like a femoral component's).
+  // 200 x 200 grid (79,600 triangles, most of them a pixel or less, so that per-triangle work
+  // dominates as it does for a femoral component's 12,292).
   const geometry::Mesh fine = sim::uvSphere(0.03, 200, 200);
   const geometry::XrayCamera crop = camera.cropped(300, 300, 424, 424);
   std::vector<double> mask_ms;
