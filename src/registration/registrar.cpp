@@ -11,7 +11,6 @@
 #include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
-#include "fluoro_tracker/imaging/renderer.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/registration/compressed_residuals_cost.h"
 #include "fluoro_tracker/registration/contact_cost.h"
@@ -980,8 +979,7 @@ void Registrar::finish(const std::vector<ViewImage>& views, Solution* solution) 
     const geometry::Pose camera_from_fixed = camera.worldFromCamera().inverse();
     for (std::size_t b = 0; b < bones_.size(); ++b) {
       if (result.diverged[b]) continue;
-      silhouettes[v][b] = imaging::Renderer::coverage(camera, bones_[b].silhouette->mesh(),
-                                                      camera_from_fixed * result.poses[b]);
+      silhouettes[v][b] = bones_[b].silhouette->mask(camera, camera_from_fixed * result.poses[b]);
     }
   }
   for (std::size_t b = 0; b < bones_.size(); ++b) {

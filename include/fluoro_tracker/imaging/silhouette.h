@@ -3,6 +3,8 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
 
 #include "fluoro_tracker/geometry/mesh.h"
 #include "fluoro_tracker/geometry/pose.h"
@@ -22,7 +24,8 @@ struct ContourPoint {
 // its edges with their two faces (for contour generators: edges between a face turned toward
 // the source and one turned away). At a pose, the contour generators are projected and sampled,
 // and samples that are not on the outer boundary of the projected silhouette (hidden rims,
-// inner folds) are dropped by testing the rendered silhouette mask on both sides.
+// inner folds) are dropped by testing the silhouette mask on both sides. The mask itself is
+// filled from the contour generators alone (see mask()), not by rasterising every face.
 class SilhouetteModel {
  public:
   explicit SilhouetteModel(const geometry::Mesh& mesh);
@@ -35,7 +38,31 @@ class SilhouetteModel {
                                     const geometry::Pose& camera_from_mesh,
                                     double spacing_px = 1.0) const;
 
+  // Silhouette mask (CV_8U, camera-sized, 255 where the ray through the pixel's sample point,
+  // offset Renderer::kSampleOffsetPx from its centre, crosses the mesh): the same pixels as
+  // Renderer::coverage but for samples within a rounding error of the outline. Throws
+  // InputError for a vertex behind the source.
+  cv::Mat mask(const geometry::XrayCamera& camera, const geometry::Pose& camera_from_mesh) const;
+
  private:
+  // A contour generator: an edge between a face turned toward the source and one turned away,
+  // directed as the face toward the source runs along it.
+  struct DirectedEdge {
+    int from;
+    int to;
+  };
+  // The mesh seen from a view: its vertices' pixels, their bounds, and its contour generators.
+  struct Projection {
+    std::vector<Eigen::Vector2d> pixels;
+    Eigen::AlignedBox2d bounds;
+    std::vector<DirectedEdge> contour_generators;
+  };
+  Projection project(const geometry::XrayCamera& camera,
+                     const geometry::Pose& camera_from_mesh) const;
+  // The mask of the silhouette over the pixels [x0, x0 + width) x [y0, y0 + height) of the
+  // projection's image, as a width x height image.
+  cv::Mat fillSilhouette(const Projection& projection, int x0, int y0, int width, int height) const;
+
   struct Edge {
     int a;
     int b;
@@ -44,7 +71,6 @@ class SilhouetteModel {
   };
   geometry::Mesh mesh_;
   std::vector<Edge> edges_;
-  std::vector<Eigen::Vector3d> face_normals_;
 };
 
 }  // namespace imaging

@@ -62,3 +62,30 @@ TEST(Silhouette, OpenMeshesAreRejected) {
       std::vector<geometry::Mesh::Triangle>(cube.triangles().begin() + 1, cube.triangles().end()));
   EXPECT_THROW_WITH(imaging::SilhouetteModel{open}, "closed");
 }
+
+// The mask filled from the contour generators' winding number covers the pixels that the
+// rasterised front faces cover, on a part whose condyles overlap in projection (winding 2) and
+// whose box cuts fold, seen from several directions. Samples within the renderer's vertex
+// snapping (1/256 px) of the outline may differ.
+TEST(Silhouette, MaskIsTheRenderedCoverage) {
+  const geometry::Mesh femur = sim::makeKneeImplants().femoral_component;
+  const imaging::SilhouetteModel model(femur);
+  Eigen::Matrix3d lateral;
+  lateral << -1, 0, 0, 0, -1, 0, 0, 0, 1;
+  const std::vector<Eigen::Matrix3d> rotations = {
+      lateral, lateral * geometry::rotationY(0.3) * geometry::rotationX(0.2),
+      geometry::rotationX(0.4) * geometry::rotationY(-0.7) * geometry::rotationZ(0.2),
+      geometry::rotationY(M_PI / 2.0)};
+  for (const auto& rotation : rotations) {
+    const geometry::Pose pose = geometry::makePose(rotation, Eigen::Vector3d(0.001, -0.002, 1.0));
+    const cv::Mat mask = model.mask(kCamera, pose);
+    const cv::Mat rendered = imaging::Renderer::coverage(kCamera, femur, pose);
+    ASSERT_EQ(mask.type(), CV_8U);
+    ASSERT_EQ(mask.size(), rendered.size());
+    const int covered = cv::countNonZero(rendered);
+    EXPECT_GT(covered, 3000);
+    cv::Mat differ;
+    cv::bitwise_xor(mask, rendered, differ);
+    EXPECT_LE(cv::countNonZero(differ), 3) << cv::countNonZero(differ) << " of " << covered;
+  }
+}
