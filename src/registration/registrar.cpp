@@ -465,12 +465,14 @@ void RegistrationSettings::validate() const {
       !(mirror_check.min_neutral_gain >= 0.0) ||
       !(mirror_check.max_difference_deg >= mirror_check.min_difference_deg) ||
       !(mirror_check.tracking_turn_max_difference_deg >= 0.0) ||
-      mirror_check.outer_iterations < 1 || mirror_check.solver_iterations < 1) {
+      mirror_check.outer_iterations < 1 || mirror_check.solver_iterations < 1 ||
+      !(mirror_check.abandon_cost_ratio > 0.0) || !(mirror_check.abandon_deviation_excess > 0.0)) {
     throw InputError(
         "registration: mirror_check needs cost_tolerance >= 0, min_difference_deg >= 0, "
         "min_neutral_gain >= 0, "
         "max_difference_deg >= min_difference_deg, tracking_turn_max_difference_deg >= 0, "
-        "outer_iterations >= 1 and solver_iterations >= 1");
+        "outer_iterations >= 1, solver_iterations >= 1, abandon_cost_ratio > 0 and "
+        "abandon_deviation_excess > 0");
   }
   for (double shift : depth_retry.shifts_mm) {
     if (!std::isfinite(shift) || shift == 0.0) {
@@ -607,10 +609,14 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
       std::vector<geometry::Pose> starts = result.poses;
       starts[joint.child] = camera_from_fixed.inverse() * candidate;
       // The mirror differs from the solution in rotation only: the finest scale's maps serve.
+      const CandidateGate gate{
+          settings_.mirror_check.abandon_cost_ratio * first_cost, deviation,
+          required_deviation + settings_.mirror_check.abandon_deviation_excess};
       Solution candidate_solution =
-          solveUnfinished(views, starts, loaded, offset_priors, &finest_maps);
+          solveUnfinished(views, starts, loaded, offset_priors, &finest_maps, &gate);
       const RegistrationResult& mirror = candidate_solution.result;
       counts.add(mirror);
+      if (candidate_solution.abandoned) continue;
       if (mirror.diverged[joint.parent] || mirror.diverged[joint.child] ||
           mirror.final_cost > (1.0 + settings_.mirror_check.cost_tolerance) * first_cost) {
         continue;
@@ -643,10 +649,12 @@ RegistrationResult Registrar::solveFrom(const std::vector<ViewImage>& views,
   return std::move(solution.result);
 }
 
-Registrar::Solution Registrar::solveUnfinished(
-    const std::vector<ViewImage>& views, const std::vector<geometry::Pose>& initial_poses,
-    const std::vector<bool>& loaded, const EdgeOffsetPriors& offset_priors,
-    const std::vector<imaging::EdgeMap>* finest_maps) const {
+Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& views,
+                                               const std::vector<geometry::Pose>& initial_poses,
+                                               const std::vector<bool>& loaded,
+                                               const EdgeOffsetPriors& offset_priors,
+                                               const std::vector<imaging::EdgeMap>* finest_maps,
+                                               const CandidateGate* gate) const {
   if (views.empty()) throw InputError("registration: no views");
   if (initial_poses.size() != bones_.size()) {
     throw InputError("registration: " + std::to_string(initial_poses.size()) + " pose(s) for " +
@@ -924,6 +932,12 @@ Registrar::Solution Registrar::solveUnfinished(
                               relative_parent, &result);
         }
         if (converged) break;
+        if (gate != nullptr && !last_solve &&
+            (summary.final_cost > gate->max_cost ||
+             gate->deviation(result.poses) > gate->max_deviation)) {
+          Solution abandoned{std::move(result), {}, {}, true};
+          return abandoned;
+        }
       }
     }
   }

@@ -737,6 +737,16 @@ int main(int argc, char** argv) {
       po::value(&settings.mirror_check.solver_iterations)
           ->default_value(settings.mirror_check.solver_iterations),
       "Levenberg-Marquardt iterations per outer iteration of the mirror's solve")(
+      "mirror-abandon-cost-ratio",
+      po::value(&settings.mirror_check.abandon_cost_ratio)
+          ->default_value(settings.mirror_check.abandon_cost_ratio),
+      "a mirror's solve stops after an outer iteration (not its last) that leaves its cost above "
+      "this times the first solution's (1e9: never)")(
+      "mirror-abandon-deviation-excess",
+      po::value(&settings.mirror_check.abandon_deviation_excess)
+          ->default_value(settings.mirror_check.abandon_deviation_excess),
+      "... or its joint farther from neutral than the deviation it must beat by more than this "
+      "(units of the ligament bounds; 1e9: never)")(
       "clahe", po::value(&settings.edges.clahe)->default_value(settings.edges.clahe),
       "contrast-limited adaptive equalisation of each edge map's grey levels (true/false)")(
       "clahe-clip-limit",

@@ -403,6 +403,27 @@ TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
   EXPECT_FALSE(registration::meetsSuccessCriterion(
       registration::poseError(kept.poses[1], truth[1], camera_from_fixed)));
   EXPECT_NEAR(deviation(kept.poses), deviation(unchecked.poses), 1e-9);
+
+  // A candidate whose cost after an outer iteration exceeds abandon_cost_ratio x the solution's
+  // is stopped there and not kept: far below 1, every candidate is, and the first solution stays.
+  settings.mirror_check.min_neutral_gain = registration::MirrorCheckSettings().min_neutral_gain;
+  settings.mirror_check.abandon_cost_ratio = 1e-6;
+  const auto gated = registration::Registrar(scene.bones, settings, {knee}).solve(views, start);
+  EXPECT_NEAR(deviation(gated.poses), deviation(unchecked.poses), 1e-9);
+  EXPECT_LT(gated.cost_evaluations, checked.cost_evaluations);
+  EXPECT_GT(gated.cost_evaluations, unchecked.cost_evaluations);
+  // ... and one whose joint is farther from neutral than it must end by more than
+  // abandon_deviation_excess: asked to end all but exactly neutral, no candidate can, and the
+  // gate stops them all early.
+  settings.mirror_check.abandon_cost_ratio = 1e9;
+  settings.mirror_check.min_neutral_gain = deviation(unchecked.poses) - 1e-6;
+  settings.mirror_check.abandon_deviation_excess = 1e9;
+  const auto ungated = registration::Registrar(scene.bones, settings, {knee}).solve(views, start);
+  settings.mirror_check.abandon_deviation_excess = 1e-6;
+  const auto far = registration::Registrar(scene.bones, settings, {knee}).solve(views, start);
+  EXPECT_NEAR(deviation(ungated.poses), deviation(unchecked.poses), 1e-9);
+  EXPECT_NEAR(deviation(far.poses), deviation(unchecked.poses), 1e-9);
+  EXPECT_LT(far.cost_evaluations, ungated.cost_evaluations);
 }
 
 // A view turned 7 deg about the leg: the tray is seen nearly edge-on but turned about its stem.
