@@ -255,6 +255,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "outer_iterations",
                      "coarse_outer_iterations",
                      "tracking_scales",
+                     "tracking_retry",
                      "solver_iterations",
                      "contour_spacing_px",
                      "robust_scale_px",
@@ -301,6 +302,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("outer_iterations", &r.outer_iterations);
   section.read("coarse_outer_iterations", &r.coarse_outer_iterations);
   section.read("tracking_scales", &r.tracking_scales);
+  section.read("tracking_retry", &r.tracking_retry);
   section.read("solver_iterations", &r.solver_iterations);
   section.read("contour_spacing_px", &r.contour_spacing_px);
   section.read("robust_scale_px", &r.robust_scale_px);

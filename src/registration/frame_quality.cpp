@@ -66,6 +66,13 @@ int statusTrouble(const std::vector<std::string>& status) {
   return trouble;
 }
 
+std::pair<int, double> resultRank(const RegistrationResult& result,
+                                  const QualitySettings& settings) {
+  double inliers = 0.0;
+  for (const BoneQuality& q : result.quality) inliers += q.contour_inlier_fraction;
+  return {statusTrouble(classifyBones(result, settings)), -inliers};
+}
+
 std::vector<std::string> classifyBones(const RegistrationResult& result,
                                        const QualitySettings& settings) {
   const std::size_t bones = result.poses.size();

@@ -523,11 +523,7 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
   RegistrationResult result = solveChecked(views, initial_poses, loaded, offset_priors);
   if (!settings_.depth_retry.enabled) return result;
   // Fewer bones not ok first (lost counts twice), then more contour inliers.
-  const auto rank = [&](const RegistrationResult& r) {
-    double inliers = 0.0;
-    for (const BoneQuality& q : r.quality) inliers += q.contour_inlier_fraction;
-    return std::make_pair(statusTrouble(classifyBones(r, settings_.quality)), -inliers);
-  };
+  const auto rank = [&](const RegistrationResult& r) { return resultRank(r, settings_.quality); };
   auto best_rank = rank(result);
   if (best_rank.first == 0) return result;
   const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();

@@ -85,6 +85,7 @@ void Tracker::reinitialize(const std::vector<std::string>& bones,
   previous_.clear();
   recovering_ = false;
   poses_registered_ = false;
+  previous_trouble_ = 0;
 }
 
 void Tracker::requestSearch() {
@@ -126,6 +127,7 @@ void Tracker::accept(TrackedFrame* frame) {
   if (first && any_lost) poses_.clear();  // not found yet: search again next frame
   recovering_ = any_lost && search_ != nullptr;
   poses_registered_ = !poses_.empty();
+  previous_trouble_ = statusTrouble(frame->status);
 }
 
 TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vector<bool>& loaded) {
@@ -160,13 +162,34 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
   // ambiguity (see MirrorCheckSettings), which that registration (or the search) chose: the
   // motion so far is better evidence than the neutral-joint rule. Poses given by the user (the
   // first frame, reinitialize) are checked.
-  frame.result = (poses_registered_ ? continuing_registrar_ : registrar_)
-                     ->solve(views, guess, loaded,
-                             edge_offsets_.priors(registrar_->bones().size(), views.size()));
+  const EdgeOffsetPriors priors = edge_offsets_.priors(registrar_->bones().size(), views.size());
+  frame.result =
+      (poses_registered_ ? continuing_registrar_ : registrar_)->solve(views, guess, loaded, priors);
+  const QualitySettings& quality = registrar_->settings().quality;
+  if (poses_registered_ && continuing_registrar_ != registrar_ &&
+      registrar_->settings().tracking_retry &&
+      statusTrouble(classifyBones(frame.result, quality)) > previous_trouble_) {
+    // The continued registration left the frame in more doubt than the last one (see
+    // RegistrationSettings::tracking_retry): the full schedule, from the prediction and, when it
+    // extrapolated, from the last good poses. (Doubt that persists, e.g. contour under an
+    // occluder, is the image's, which no start changes.)
+    std::vector<std::vector<geometry::Pose>> starts = {guess};
+    if (previous_.size() == poses_.size()) starts.push_back(poses_);
+    auto best_rank = resultRank(frame.result, quality);
+    for (const auto& retry_start : starts) {
+      RegistrationResult retry = registrar_->solve(views, retry_start, loaded, priors);
+      const auto rank = resultRank(retry, quality);
+      if (rank < best_rank) {
+        best_rank = rank;
+        frame.result = std::move(retry);
+      }
+      if (best_rank.first == 0) break;
+    }
+  }
   frame.solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   frame.poses = frame.result.poses;
-  frame.status = classifyBones(frame.result, registrar_->settings().quality);
+  frame.status = classifyBones(frame.result, quality);
   const bool any_lost =
       std::find(frame.status.begin(), frame.status.end(), "lost") != frame.status.end();
   if (any_lost && search_) {

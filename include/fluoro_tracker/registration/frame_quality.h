@@ -1,6 +1,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "fluoro_tracker/constraints/ligament_envelope.h"
@@ -80,6 +81,11 @@ std::string combinedStatus(const std::string& parent, const std::string& child);
 // How much of a result is in doubt, for choosing between results of one frame: its bones not
 // ok, a lost one counting twice (0 when every bone is ok).
 int statusTrouble(const std::vector<std::string>& status);
+
+// For choosing between registrations of one frame (lower is better): statusTrouble of its
+// bones' classifyBones status, then the negated sum of their contour inlier fractions.
+std::pair<int, double> resultRank(const RegistrationResult& result,
+                                  const QualitySettings& settings);
 
 // Per bone "ok", "suspect" or "lost" from a registration's quality figures (see QualitySettings).
 std::vector<std::string> classifyBones(const RegistrationResult& result,

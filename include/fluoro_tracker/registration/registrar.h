@@ -141,6 +141,16 @@ struct RegistrationSettings {
   // happen; full resolution alone tracked the same frames (robustness trials) and keeps the
   // live node at 30 Hz (with the half-resolution pass: median 34 ms, 3 of 200 frames dropped).
   std::vector<double> tracking_scales = {1.0};
+  // A tracked frame (registered at tracking_scales, without the depth retry and with only the
+  // tracking mirror check) that leaves its bones in more doubt (statusTrouble) than the frame
+  // before is registered again with the full
+  // schedule above (scales, depth retry, mirror check), from the tracker's prediction and from
+  // the last good poses, and the best result (resultRank) is kept. The prediction misses when
+  // the motion changes between frames (real sequences tracked at a fraction of their frame
+  // rate); from a few millimetres off, full resolution alone lets a bone settle along the beam.
+  // Measured: the real Kneel frames tracked as a sequence (ten video frames apart), 2/3 -> 3/3
+  // within 1 mm and 2 deg of the lab's reference; the simulated robustness trials unchanged.
+  bool tracking_retry = true;
   int solver_iterations = 8;        // Levenberg-Marquardt iterations per outer iteration
   double contour_spacing_px = 1.0;  // contour sample spacing at each scale
   double robust_scale_px = 4.0;     // Cauchy scale, full-resolution pixels

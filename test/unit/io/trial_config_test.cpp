@@ -307,6 +307,7 @@ registration:
   outer_iterations: 6
   coarse_outer_iterations: 3
   tracking_scales: [0.5, 1.0]
+  tracking_retry: false
   robust_scale_px: 3.0
   parameterisation: parent_relative
   edge_offset_hold: false
@@ -349,6 +350,7 @@ registration:
   EXPECT_EQ(c.registration.outer_iterations, 6);
   EXPECT_EQ(c.registration.coarse_outer_iterations, 3);
   EXPECT_EQ(c.registration.tracking_scales, (std::vector<double>{0.5, 1.0}));
+  EXPECT_FALSE(c.registration.tracking_retry);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, 3.0);
   EXPECT_FALSE(c.registration.edge_offset_hold);
   EXPECT_FALSE(c.registration.edge_offset_tracking.enabled);
@@ -408,6 +410,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.registration.scales, d.scales);
   EXPECT_EQ(c.registration.coarse_outer_iterations, d.coarse_outer_iterations);
   EXPECT_EQ(c.registration.tracking_scales, d.tracking_scales);
+  EXPECT_EQ(c.registration.tracking_retry, d.tracking_retry);
   EXPECT_EQ(c.registration.outer_iterations, d.outer_iterations);
   EXPECT_EQ(c.registration.solver_iterations, d.solver_iterations);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, d.robust_scale_px);
