@@ -9,8 +9,7 @@
 namespace fluoro_tracker {
 namespace ros_bridge {
 
-TrialBagWriter::TrialBagWriter(const std::string& path,
-                               const std::vector<sim::SimulatedView>& views,
+TrialBagWriter::TrialBagWriter(const std::string& path, const std::vector<io::FluoroView>& views,
                                const std::string& fixed_frame, double first_stamp_s)
     : views_(views) {
   try {
@@ -35,7 +34,7 @@ TrialBagWriter::TrialBagWriter(const std::string& path,
     (*header)["md5sum"] = ros::message_traits::md5sum(tf);
     (*header)["message_definition"] = ros::message_traits::definition(tf);
     (*header)["latching"] = "1";
-    (*header)["callerid"] = "/simulate_trial";
+    (*header)["callerid"] = "/fluoro_tracker_trial_bag_writer";
     bag_.write("/tf_static", stamp, tf, header);
   }
 }
@@ -44,17 +43,22 @@ TrialBagWriter::~TrialBagWriter() {
   close();
 }
 
-void TrialBagWriter::write(const sim::SimulatedFrame& frame) {
-  if (frame.images.size() != views_.size()) {
-    throw InputError("frame " + std::to_string(frame.index) + " has " +
-                     std::to_string(frame.images.size()) + " image(s) for " +
-                     std::to_string(views_.size()) + " view(s)");
+void TrialBagWriter::write(int index, double stamp_s, const std::vector<cv::Mat>& images) {
+  if (images.size() != views_.size()) {
+    throw InputError("frame " + std::to_string(index) + " has " + std::to_string(images.size()) +
+                     " image(s) for " + std::to_string(views_.size()) + " view(s)");
   }
-  const ros::Time stamp(frame.stamp_s);
+  const ros::Time stamp(stamp_s);
   for (std::size_t v = 0; v < views_.size(); ++v) {
     sensor_msgs::CameraInfo info = toCameraInfo(views_[v].camera, stamp);
     info.header.seq = sequence_;
-    const sensor_msgs::Image image = toImageMessage(frame.images[v], info.header);
+    sensor_msgs::Image image;
+    try {
+      image = toImageMessage(images[v], info.header);
+    } catch (const InputError& e) {
+      throw InputError("frame " + std::to_string(index) + ", view " + views_[v].name + ": " +
+                       e.what());
+    }
     bag_.write(imageTopic(views_[v]), stamp, image);
     bag_.write(cameraInfoTopic(views_[v]), stamp, info);
   }

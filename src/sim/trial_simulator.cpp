@@ -76,22 +76,23 @@ TrialSimulator::TrialSimulator(const TrialSimulatorSettings& settings)
   const double focal = settings_.principal_distance_mm / settings_.pixel_spacing_mm;
   const double cx = 0.5 * (settings_.image_width - 1);
   const double cy = 0.5 * (settings_.image_height - 1);
-  if (settings_.views == 1) {
-    fixed_frame_ = "fluoro_optical";
-    views_.push_back({"fluoro", geometry::XrayCamera(settings_.image_width, settings_.image_height,
-                                                     focal, focal, cx, cy, "fluoro_optical")});
+  const auto view_count = static_cast<std::size_t>(settings_.views);
+  fixed_frame_ = io::fixedFrameId(view_count);
+  if (view_count == 1) {
+    const std::string name = io::fluoroViewName(0, 1);
+    views_.push_back({name, geometry::XrayCamera(settings_.image_width, settings_.image_height,
+                                                 focal, focal, cx, cy, io::opticalFrameId(name))});
   } else {
-    fixed_frame_ = "lab";
     // The second beam turns about the vertical (image y) axis through the joint centre.
     const Eigen::Vector3d pivot(0.0, 0.0, 1e-3 * settings_.source_to_joint_mm);
     const Pose turn = Eigen::Translation3d(pivot) *
                       Eigen::AngleAxisd(geometry::degToRad(settings_.view_separation_deg),
                                         Eigen::Vector3d::UnitY()) *
                       Eigen::Translation3d(-pivot);
-    for (int v = 0; v < 2; ++v) {
-      const std::string name = "fluoro" + std::to_string(v + 1);
+    for (std::size_t v = 0; v < view_count; ++v) {
+      const std::string name = io::fluoroViewName(v, view_count);
       geometry::XrayCamera camera(settings_.image_width, settings_.image_height, focal, focal, cx,
-                                  cy, name + "_optical");
+                                  cy, io::opticalFrameId(name));
       camera.setWorldFromCamera(v == 0 ? Pose::Identity() : turn);
       views_.push_back({name, camera});
     }

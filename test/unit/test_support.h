@@ -1,5 +1,9 @@
 #pragma once
 
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -38,6 +42,18 @@ inline void writeText(const std::string& path, const std::string& text) {
 inline std::string readText(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// Runs `command` through the shell with its standard output and error captured in `output`;
+// returns its exit code.
+inline int runCommand(const std::string& command, std::string* output) {
+  const char* tmp = std::getenv("TMPDIR");
+  const std::string log = std::string(tmp ? tmp : "/tmp") + "/fluoro_test_command_" +
+                          std::to_string(::getpid()) + ".log";
+  const int status = std::system((command + " > " + log + " 2>&1").c_str());
+  *output = readText(log);
+  std::remove(log.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 // Real data from ../shared/data beside the repository (see its README.md).

@@ -5,37 +5,43 @@
 #include <vector>
 
 #include <rosbag/bag.h>
+#include <opencv2/core.hpp>
 
+#include "fluoro_tracker/io/fluoro_view.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
 
 namespace fluoro_tracker {
 namespace ros_bridge {
 
-// Writes a simulated trial as a bag per the public contract: for one view /fluoro/image_raw and
-// /fluoro/camera_info (frame fluoro_optical); for N views /fluoroK/image_raw and
-// /fluoroK/camera_info (frames fluoroK_optical) plus latched /tf_static tying each optical
-// frame to the fixed frame. Message and bag times are the image stamps.
+// Writes a trial's frames (simulated, or real images with their calibrations) as a bag per the
+// public contract: for one view /fluoro/image_raw and /fluoro/camera_info (frame
+// fluoro_optical); for N views /fluoroK/image_raw and /fluoroK/camera_info (frames
+// fluoroK_optical) plus latched /tf_static tying each optical frame to the fixed frame.
+// Message and bag times are the image stamps.
 class TrialBagWriter {
  public:
   // Opens (truncates) the bag and, for several views, writes /tf_static. Throws InputError if
   // the file cannot be created.
-  TrialBagWriter(const std::string& path, const std::vector<sim::SimulatedView>& views,
+  TrialBagWriter(const std::string& path, const std::vector<io::FluoroView>& views,
                  const std::string& fixed_frame, double first_stamp_s);
   ~TrialBagWriter();
 
-  static std::string imageTopic(const sim::SimulatedView& view) {
+  static std::string imageTopic(const io::FluoroView& view) {
     return "/" + view.name + "/image_raw";
   }
-  static std::string cameraInfoTopic(const sim::SimulatedView& view) {
+  static std::string cameraInfoTopic(const io::FluoroView& view) {
     return "/" + view.name + "/camera_info";
   }
 
-  void write(const sim::SimulatedFrame& frame);
+  // One frame: an image per view (mono8 or mono16), all stamped `stamp_s`. Throws InputError
+  // (naming frame `index`) for a wrong number of images or an image of another type.
+  void write(int index, double stamp_s, const std::vector<cv::Mat>& images);
+  void write(const sim::SimulatedFrame& frame) { write(frame.index, frame.stamp_s, frame.images); }
   void close();
 
  private:
   rosbag::Bag bag_;
-  std::vector<sim::SimulatedView> views_;
+  std::vector<io::FluoroView> views_;
   std::uint32_t sequence_ = 0;
 };
 

@@ -10,6 +10,7 @@
 #include "fluoro_tracker/geometry/mesh.h"
 #include "fluoro_tracker/geometry/xray_camera.h"
 #include "fluoro_tracker/imaging/detector_model.h"
+#include "fluoro_tracker/io/fluoro_view.h"
 #include "fluoro_tracker/io/trial_config.h"
 #include "fluoro_tracker/sim/implant_models.h"
 #include "fluoro_tracker/sim/knee_motion.h"
@@ -63,10 +64,9 @@ struct TrialSimulatorSettings {
 // defaults. Throws InputError naming the file and key.
 TrialSimulatorSettings loadSimulatorSettings(const std::string& path);
 
-struct SimulatedView {
-  std::string name;             // "fluoro" (single plane) or "fluoro1", "fluoro2"
-  geometry::XrayCamera camera;  // worldFromCamera() is the pose in the trial's fixed frame
-};
+// "fluoro" (single plane) or "fluoro1", "fluoro2"; worldFromCamera() is the pose in the
+// trial's fixed frame.
+using SimulatedView = io::FluoroView;
 
 struct SimulatedFrame {
   int index = 0;

@@ -55,13 +55,7 @@ struct Trial {
 
 // Runs track_bag with `args`; returns its exit code and leaves its output in `output`.
 int runTrackBag(const std::string& args, std::string* output) {
-  const std::string log = std::string(std::getenv("TMPDIR") ? std::getenv("TMPDIR") : "/tmp") +
-                          "/track_bag_test_" + std::to_string(::getpid()) + ".log";
-  const int status =
-      std::system((std::string(TRACK_BAG_EXECUTABLE) + " " + args + " > " + log + " 2>&1").c_str());
-  *output = test_support::readText(log);
-  std::remove(log.c_str());
-  return WEXITSTATUS(status);
+  return test_support::runCommand(std::string(TRACK_BAG_EXECUTABLE) + " " + args, output);
 }
 
 }  // namespace
