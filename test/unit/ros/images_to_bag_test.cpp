@@ -30,6 +30,16 @@ int runTrackBag(const std::string& args, std::string* output) {
 
 const std::string kKneel = test_support::sharedData("jointtrack_kneel");
 
+// Every frame of a bag as track_bag reads it; a skipped frame fails the test.
+std::vector<ros_bridge::BagFrame> readFrames(const std::string& bag,
+                                             const std::string& fixed_frame) {
+  ros_bridge::BagFrameReader reader(bag, {}, fixed_frame);
+  std::vector<ros_bridge::BagFrame> frames;
+  reader.read([&](const ros_bridge::BagFrame& f) { frames.push_back(f); },
+              [](int, double, const std::string& reason) { ADD_FAILURE() << reason; });
+  return frames;
+}
+
 // The Kneel study's import: its frames in `images` (the study's own folder holds the three
 // frames, and 1024/ the same frames with the display inverted), its calibration, both
 // components' models and .jts reference poses.
@@ -101,12 +111,9 @@ TEST(ImagesToBag, BagHoldsEachFrameWithItsCameraAndStamp) {
                            &output),
             0)
       << output;
-  ros_bridge::BagFrameReader reader(out.file("kneel.bag"), {}, "");
-  std::vector<ros_bridge::BagFrame> frames;
-  reader.read([&](const ros_bridge::BagFrame& f) { frames.push_back(f); },
-              [](int, double, const std::string& reason) { ADD_FAILURE() << reason; });
+  const auto frames = readFrames(out.file("kneel.bag"), "");
   ASSERT_EQ(frames.size(), 3u);
-  EXPECT_EQ(reader.fixedFrame(), "fluoro_optical");
+  EXPECT_EQ(frames[0].cameras[0].frameId(), "fluoro_optical");
   const cv::Mat file = cv::imread(kKneel + "/AT_K1_V1_0170.tif", cv::IMREAD_UNCHANGED);
   EXPECT_EQ(cv::norm(frames[1].images[0], file, cv::NORM_INF), 0.0);
   EXPECT_NEAR(frames[1].stamp_s, 20.0 + 1.0 / 7.5, 1e-6);
@@ -127,10 +134,7 @@ TEST(ImagesToBag, WritesRealBiplaneFramesWithTheirMayaCamCalibrations) {
                      &output),
       0)
       << output;
-  ros_bridge::BagFrameReader reader(out.file("wrist.bag"), {}, "lab");
-  std::vector<ros_bridge::BagFrame> frames;
-  reader.read([&](const ros_bridge::BagFrame& f) { frames.push_back(f); },
-              [](int, double, const std::string& reason) { ADD_FAILURE() << reason; });
+  const auto frames = readFrames(out.file("wrist.bag"), "lab");
   ASSERT_EQ(frames.size(), 3u);
   ASSERT_EQ(frames[0].images.size(), 2u);
   EXPECT_EQ(frames[0].images[0].cols, 1760);
