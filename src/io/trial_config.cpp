@@ -18,47 +18,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string resolvePath(const fs::path& base, const std::string& path) {
-  const fs::path p(path);
-  return (p.is_absolute() ? p : (base / p)).lexically_normal().string();
-}
-
-template <typename T>
-T required(const YAML::Node& node, const std::string& key, const std::string& context) {
-  const YAML::Node value = node[key];
-  if (!value) throw InputError(context + ": missing key '" + key + "'");
-  try {
-    return value.as<T>();
-  } catch (const YAML::Exception&) {
-    throw InputError(context + ": key '" + key + "' (line " +
-                     std::to_string(value.Mark().line + 1) + ") has the wrong type");
-  }
-}
-
-std::vector<double> numberList(const YAML::Node& node, const std::string& key, std::size_t size,
-                               const std::string& context) {
-  const auto values = required<std::vector<double>>(node, key, context);
-  if (values.size() != size) {
-    throw InputError(context + ": '" + key + "' must have " + std::to_string(size) +
-                     " numbers, has " + std::to_string(values.size()));
-  }
-  for (double v : values) {
-    if (!std::isfinite(v)) throw InputError(context + ": '" + key + "' has a non-finite value");
-  }
-  return values;
-}
-
-// {position_m: [x, y, z], orientation_xyzw: [x, y, z, w]}
-geometry::Pose readPose(const YAML::Node& pose, const std::string& context) {
-  const auto p = numberList(pose, "position_m", 3, context);
-  const auto q = numberList(pose, "orientation_xyzw", 4, context);
-  const Eigen::Quaterniond rotation(q[3], q[0], q[1], q[2]);
-  if (std::abs(rotation.norm() - 1.0) > 1e-3) {
-    throw InputError(context + ": orientation_xyzw is not a unit quaternion");
-  }
-  return geometry::makePose(rotation.normalized(), Eigen::Vector3d(p[0], p[1], p[2]));
-}
-
 void writePose(YAML::Emitter* out, const std::string& key, const geometry::Pose& pose) {
   const Eigen::Vector3d t = pose.translation();
   const Eigen::Quaterniond q(pose.linear());
@@ -428,21 +387,22 @@ TrialConfig loadTrialConfig(const std::string& path) {
     if (!names.insert(bone.name).second) {
       throw InputError(context + ": bone name '" + bone.name + "' is used twice");
     }
-    bone.mesh = resolvePath(base, required<std::string>(b, "mesh", context));
+    bone.mesh = resolvePath(base.string(), required<std::string>(b, "mesh", context));
     if (b["mesh_units"]) {
       bone.mesh_units =
           geometry::parseLengthUnit(required<std::string>(b, "mesh_units", context), context);
     }
     if (b["articular_mesh"]) {
-      bone.articular_mesh = resolvePath(base, required<std::string>(b, "articular_mesh", context));
+      bone.articular_mesh =
+          resolvePath(base.string(), required<std::string>(b, "articular_mesh", context));
     }
     if (const YAML::Node pose = b["initial_pose"]) {
-      bone.initial_pose = readPose(pose, context + ".initial_pose");
+      bone.initial_pose = readYamlPose(pose, context + ".initial_pose");
     }
     if (b["image_weight"]) bone.image_weight = required<double>(b, "image_weight", context);
     if (!(bone.image_weight >= 0.0)) throw InputError(context + ": image_weight must be >= 0");
     if (const YAML::Node frame = b["anatomical_frame"]) {
-      bone.anatomical_frame = readPose(frame, context + ".anatomical_frame");
+      bone.anatomical_frame = readYamlPose(frame, context + ".anatomical_frame");
     }
     config.bones.push_back(std::move(bone));
   }

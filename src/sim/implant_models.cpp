@@ -29,10 +29,6 @@ double trayRadius(const KneeImplantDimensions& d, double theta, double shrink) {
 
 constexpr double kInsertShrink = 0.97;
 
-// Medial-lateral distance of each condyle's centre (and of each dished track of the insert) from
-// the component's midline.
-constexpr double kCondyleTrackMm = 21.0;
-
 double dishOffsetMm(const KneeImplantDimensions& d, double x, double z) {
   // Two condylar tracks, slightly posterior. Medial-lateral width 10 mm: with a 3 mm depth the
   // bottom's coronal radius is 33 mm, a little larger than the condyles' (30 mm), so each condyle
@@ -43,7 +39,7 @@ double dishOffsetMm(const KneeImplantDimensions& d, double x, double z) {
   const double dx = x + 2.0;
   const double along = std::exp(-(dx * dx) / (2.0 * 13.0 * 13.0));
   double offset = 0.0;
-  for (double zc : {-kCondyleTrackMm, kCondyleTrackMm}) {
+  for (double zc : {-d.condyle_track_mm, d.condyle_track_mm}) {
     // The lateral (+z) track is shallower by as much as the lateral condyle is smaller, so
     // that both condyles bear load in neutral alignment.
     const double bottom =
@@ -139,7 +135,7 @@ Mesh makeFemoralComponent(const KneeImplantDimensions& d) {
     // Each condyle is rounded in the coronal plane (a torus about its track), as on real
     // components; 0 leaves the condyles flat across.
     if (d.condyle_coronal_radius_mm > 0.0) {
-      const double from_track = std::abs(z) - kCondyleTrackMm;
+      const double from_track = std::abs(z) - d.condyle_track_mm;
       r -= from_track * from_track / (2.0 * d.condyle_coronal_radius_mm);
     }
     // Rounded medial and lateral edges.
@@ -180,6 +176,21 @@ KneeImplantSet makeKneeImplants(const KneeImplantDimensions& d) {
       extrudeOutline(insert_outline, 0.0, d.insert_thickness_mm, 14, [&](double x, double z) {
         return dishOffsetMm(d, x, z);
       }).scaled(1e-3);
+  return set;
+}
+
+KneeImplantSet makeKneeImplants(const KneeImplantDimensions& d, const ImplantMeshFiles& files) {
+  KneeImplantSet set = makeKneeImplants(d);
+  geometry::MeshLoadOptions options;
+  options.file_units = files.units;
+  const auto load = [&](const ImplantMeshFile& file, Mesh* mesh) {
+    if (file.path.empty()) return false;
+    *mesh = Mesh::load(file.path, options).transformed(file.component_from_mesh);
+    return true;
+  };
+  load(files.femoral_component, &set.femoral_component);
+  load(files.tibial_tray, &set.tibial_tray);
+  if (load(files.tibial_insert, &set.tibial_insert)) set.insert_generated = false;
   return set;
 }
 

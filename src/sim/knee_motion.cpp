@@ -56,13 +56,16 @@ bool KneeContactSolver::collides(const geometry::Pose& tibia_from_femur) const {
 }
 
 geometry::Pose KneeContactSolver::settle(const geometry::Pose& tibia_from_femur) const {
-  // Start from the vertex-based estimate, then bracket [penetrating, clear] and bisect.
+  // Start from the vertex-based estimate over the generated insert's surface (from the pose as
+  // given for an insert read from a file), then bracket [penetrating, clear] and bisect.
   geometry::Pose pose = tibia_from_femur;
-  const double clearance = femurInsertClearance(pose, *implants_, dimensions_);
-  if (!std::isfinite(clearance)) {
-    throw InputError("knee contact: the femoral component is not above the insert");
+  if (implants_->insert_generated) {
+    const double clearance = femurInsertClearance(pose, *implants_, dimensions_);
+    if (!std::isfinite(clearance)) {
+      throw InputError("knee contact: the femoral component is not above the insert");
+    }
+    pose.translation().y() -= clearance;
   }
-  pose.translation().y() -= clearance;
   const auto at = [&](double lift) {
     geometry::Pose p = pose;
     p.translation().y() += lift;

@@ -1,4 +1,6 @@
 // Fills TrialSimulatorSettings from YAML: the one place where simulator keys are named.
+#include <filesystem>
+
 #include <yaml-cpp/yaml.h>
 
 #include "fluoro_tracker/input_error.h"
@@ -38,7 +40,8 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
                "start_stamp_s",
                "motion",
                "detector",
-               "implants"});
+               "implants",
+               "implant_meshes"});
   r.read("image_width", &s.image_width);
   r.read("image_height", &s.image_height);
   r.read("principal_distance_mm", &s.principal_distance_mm);
@@ -94,18 +97,45 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
 
   const io::YamlSection i = r.child("implants");
   i.allowOnly({"width_mm", "distal_radius_mm", "posterior_radius_mm", "lateral_condyle_offset_mm",
-               "condyle_coronal_radius_mm", "tray_ap_mm", "tray_ml_mm", "insert_thickness_mm",
-               "dish_depth_mm", "eminence_height_mm"});
+               "condyle_coronal_radius_mm", "condyle_track_mm", "tray_ap_mm", "tray_ml_mm",
+               "insert_thickness_mm", "dish_depth_mm", "eminence_height_mm"});
   i.read("width_mm", &s.implants.width_mm);
   i.read("distal_radius_mm", &s.implants.distal_radius_mm);
   i.read("posterior_radius_mm", &s.implants.posterior_radius_mm);
   i.read("lateral_condyle_offset_mm", &s.implants.lateral_condyle_offset_mm);
   i.read("condyle_coronal_radius_mm", &s.implants.condyle_coronal_radius_mm);
+  i.read("condyle_track_mm", &s.implants.condyle_track_mm);
   i.read("tray_ap_mm", &s.implants.tray_ap_mm);
   i.read("tray_ml_mm", &s.implants.tray_ml_mm);
   i.read("insert_thickness_mm", &s.implants.insert_thickness_mm);
   i.read("dish_depth_mm", &s.implants.dish_depth_mm);
   i.read("eminence_height_mm", &s.implants.eminence_height_mm);
+
+  // Component models from files: paths relative to this file's folder, each placed by its
+  // component_from_mesh pose (see ImplantMeshFiles).
+  const io::YamlSection meshes = r.child("implant_meshes");
+  meshes.allowOnly({"units", "femoral_component", "tibial_tray", "tibial_insert"});
+  if (const YAML::Node node = root["implant_meshes"]) {
+    const std::string context = "simulator settings '" + path + "' implant_meshes";
+    const std::string base = std::filesystem::absolute(path).parent_path().string();
+    if (node["units"]) {
+      s.implant_meshes.units =
+          geometry::parseLengthUnit(io::required<std::string>(node, "units", context), context);
+    }
+    const auto readFile = [&](const char* key, ImplantMeshFile* file) {
+      const YAML::Node component = node[key];
+      if (!component) return;
+      const std::string where = context + "." + key;
+      io::YamlSection(component, where).allowOnly({"path", "component_from_mesh"});
+      file->path = io::resolvePath(base, io::required<std::string>(component, "path", where));
+      if (const YAML::Node pose = component["component_from_mesh"]) {
+        file->component_from_mesh = io::readYamlPose(pose, where + ".component_from_mesh");
+      }
+    };
+    readFile("femoral_component", &s.implant_meshes.femoral_component);
+    readFile("tibial_tray", &s.implant_meshes.tibial_tray);
+    readFile("tibial_insert", &s.implant_meshes.tibial_insert);
+  }
 
   try {
     s.validate();

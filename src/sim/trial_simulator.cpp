@@ -63,13 +63,24 @@ void TrialSimulatorSettings::validate() const {
         "simulator: platform_width_mm must be >= 0 (0: none) and platform_top_below_joint_mm "
         "finite");
   }
+  if (!(implants.condyle_track_mm > 0.0) ||
+      !(implants.condyle_track_mm < 0.5 * implants.width_mm)) {
+    throw InputError("simulator: implants.condyle_track_mm must lie between 0 and half width_mm");
+  }
+  for (const ImplantMeshFile* file : {&implant_meshes.femoral_component,
+                                      &implant_meshes.tibial_tray, &implant_meshes.tibial_insert}) {
+    if (!geometry::isValidPose(file->component_from_mesh)) {
+      throw InputError("simulator: implant_meshes: the pose of '" + file->path +
+                       "' is not a finite rigid transform");
+    }
+  }
   motion.validate();
   detector.validate();
 }
 
 TrialSimulator::TrialSimulator(const TrialSimulatorSettings& settings)
     : settings_(settings),
-      implants_(makeKneeImplants(settings.implants)),
+      implants_(makeKneeImplants(settings.implants, settings.implant_meshes)),
       contact_(implants_, settings.implants) {
   settings_.detector.pixel_spacing_mm = settings_.pixel_spacing_mm;
   settings_.validate();

@@ -347,8 +347,11 @@ struct BenchmarkOutputs {
   std::string failure_overlay_dir;      // empty: no overlays
 };
 
-void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool ideal_images,
-                  const std::string& trial_set, const Perturbation& perturbation,
+// `base`: the simulator settings every trial starts from (then varied per trial: flexion range,
+// view obliquity, polarity; and by the trial set).
+void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frames, int views,
+                  std::uint64_t seed, bool ideal_images, const std::string& trial_set,
+                  const Perturbation& perturbation,
                   const registration::RegistrationSettings& settings,
                   const std::vector<Condition>& conditions,
                   const constraints::ContactSettings& contact_settings,
@@ -370,7 +373,7 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
   }
   std::mt19937_64 rng(seed);
   for (int trial = 0; trial < trials; ++trial) {
-    sim::TrialSimulatorSettings s;
+    sim::TrialSimulatorSettings s = base;
     s.views = views;
     s.motion.frames = frames;
     s.seed = seed + trial;
@@ -518,8 +521,10 @@ void runSimulated(int trials, int frames, int views, std::uint64_t seed, bool id
             ? "crude starts (femur +-3 mm in-plane, +-20 mm out-of-plane, +-5 deg; tibia +-3 mm, "
               "+-50 mm, +-5 deg in-plane, +-10 deg out-of-plane), success within 1.5 mm, 3/5 deg"
             : "start +-2 mm in-plane, +-3 mm out-of-plane, +-3 deg";
+    const std::string implants =
+        base.implant_meshes.any() ? " (implant models from files)" : "";
     tallies[c].print("simulated " + std::string(views == 1 ? "single-plane" : "bi-plane") +
-                     " total knee, " + std::to_string(trials) + " trial(s) x " +
+                     " total knee" + implants + ", " + std::to_string(trials) + " trial(s) x " +
                      std::to_string(frames) + " frame(s), " + trial_set + " images, " +
                      conditions[c].name + ", " + start + ":");
   }
@@ -668,6 +673,7 @@ int main(int argc, char** argv) {
   std::string parameterisation = "absolute";
   std::string protocol = "standard";
   std::string trial_set = "good";
+  std::string simulator_config;
   constraints::LigamentSettings ligaments;
   std::string contact_measure = "quasi_volume";
   std::string quality_csv_path;
@@ -776,6 +782,9 @@ int main(int argc, char** argv) {
       "automatic initialisation)")(
       "trial-set", po::value(&trial_set)->default_value(trial_set),
       "good (1024x1024) or poor (768x768, noisier, a metal rod across the tibia)")(
+      "simulator-config", po::value(&simulator_config),
+      "simulator settings YAML the trials start from (e.g. config/robustness/kneel_implants.yaml: "
+      "other implant models); default: the simulator's defaults")(
       "ideal", "simulate without anatomy and noise (isolates the method from image clutter)")(
       "conditions", po::value(&conditions_option)->default_value(conditions_option),
       "comma-separated: image (image terms only), contact (image + articular contact), "
@@ -885,8 +894,10 @@ int main(int argc, char** argv) {
       outputs.failure_overlay_dir = failure_overlay_dir;
     }
     if (!vm.count("skip-simulated")) {
-      runSimulated(trials, frames, views, seed, vm.count("ideal") > 0, trial_set, perturbation,
-                   settings, conditions, contact, ligaments, outputs);
+      sim::TrialSimulatorSettings base;
+      if (!simulator_config.empty()) base = sim::loadSimulatorSettings(simulator_config);
+      runSimulated(base, trials, frames, views, seed, vm.count("ideal") > 0, trial_set,
+                   perturbation, settings, conditions, contact, ligaments, outputs);
     }
     if (!kneel_dir.empty()) {
       runKneel(kneel_dir, kneel_starts, seed, settings, perturbation.search, conditions, ligaments);

@@ -2,9 +2,11 @@
 
 #include <initializer_list>
 #include <string>
+#include <vector>
 
 #include <yaml-cpp/yaml.h>
 
+#include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/input_error.h"
 
 namespace fluoro_tracker {
@@ -13,6 +15,31 @@ namespace io {
 // Parses a YAML file. Throws InputError "<what> '<path>' ..." for a missing file, a syntax error
 // (with its line) or an unreadable file, so every YAML input reports problems the same way.
 YAML::Node loadYamlFile(const std::string& path, const std::string& what);
+
+// `path` as written in a YAML file whose folder is `base_folder`: relative paths are relative to
+// that folder.
+std::string resolvePath(const std::string& base_folder, const std::string& path);
+
+// The value of a key that must be present. Throws InputError naming `context` and the key (and
+// its line) when it is missing or of the wrong type.
+template <typename T>
+T required(const YAML::Node& node, const std::string& key, const std::string& context) {
+  const YAML::Node value = node[key];
+  if (!value) throw InputError(context + ": missing key '" + key + "'");
+  try {
+    return value.as<T>();
+  } catch (const YAML::Exception&) {
+    throw InputError(context + ": key '" + key + "' (line " +
+                     std::to_string(value.Mark().line + 1) + ") has the wrong type");
+  }
+}
+
+// A required list of exactly `size` finite numbers.
+std::vector<double> numberList(const YAML::Node& node, const std::string& key, std::size_t size,
+                               const std::string& context);
+
+// {position_m: [x, y, z], orientation_xyzw: [x, y, z, w]}, metres and a unit quaternion.
+geometry::Pose readYamlPose(const YAML::Node& pose, const std::string& context);
 
 // A map in a YAML document, read into typed fields with errors that name the section, key and
 // line. Missing keys leave fields at their defaults; unknown keys can be rejected.

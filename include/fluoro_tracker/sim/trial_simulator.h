@@ -53,6 +53,8 @@ struct TrialSimulatorSettings {
   KneeMotionSettings motion;
   imaging::DetectorSettings detector;
   KneeImplantDimensions implants;
+  // Components read from files instead of generated (see ImplantMeshFiles).
+  ImplantMeshFiles implant_meshes;
   std::uint64_t seed = 1;
   double start_stamp_s = 100.0;  // stamp of frame 0 (bags cannot hold time 0)
 

@@ -115,3 +115,46 @@ TEST(KneeMotion, InvalidSettingsAreNamed) {
   motion.max_flexion_deg = 170.0;
   EXPECT_THROW_WITH(motion.validate(), "flexion");
 }
+
+// The real vendor components of the Kneel study on the generated insert fitted to them
+// (config/robustness/kneel_implants.yaml: tracks 25 mm from the midline, the lateral track
+// shallower by the 1.76 mm that the lateral distal condyle is higher). The design's condyles
+// differ front to back (the lateral posterior condyle is the larger), so no track depth seats
+// both at every angle: in every pose the femoral component rests on a condyle, and the other
+// lifts off by less than 3.5 mm (0.7 mm in extension, 1.2-3.2 mm in flexion), as condyles lift
+// off in real knees.
+TEST(KneeMotion, TheKneelStudysComponentsRestOnTheirInsertWithBoundedLiftOff) {
+  sim::KneeImplantDimensions d;
+  d.width_mm = 72.0;
+  d.condyle_track_mm = 25.0;
+  d.lateral_condyle_offset_mm = 1.76;
+  d.tray_ap_mm = 49.0;
+  d.tray_ml_mm = 74.0;
+  sim::ImplantMeshFiles files;
+  const geometry::Pose turn = geometry::makePose(
+      Eigen::Matrix3d(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY())), Eigen::Vector3d::Zero());
+  files.femoral_component = {test_support::sharedData("jointtrack_kneel/KR_right_7_fem.stl"), turn};
+  files.tibial_tray = {test_support::sharedData("jointtrack_kneel/KR_right_6_tib.stl"),
+                       geometry::makePose(turn.linear(), Eigen::Vector3d(0.0, -0.003, 0.0))};
+  const sim::KneeImplantSet set = sim::makeKneeImplants(d, files);
+  const sim::KneeContactSolver contact(set, d);
+  for (double flexion : {0.0, 30.0, 60.0, 90.0, 120.0}) {
+    sim::KneeMotionSettings motion;
+    motion.frames = 1;
+    motion.start_flexion_deg = motion.max_flexion_deg = flexion;
+    motion.internal_rotation_at_max_deg = 0.0;
+    motion.rollback_at_max_mm = 0.0;
+    motion.adduction_amplitude_deg = 0.0;
+    const geometry::Pose tibia_from_femur = sim::kneePoseAt(motion, 0, contact).tibia_from_femur;
+    double medial = 1e9, lateral = 1e9;  // smallest clearance per condyle (m)
+    for (const auto& v : set.femoral_component.vertices()) {
+      const Eigen::Vector3d p = tibia_from_femur * v;
+      if (!sim::isOverInsert(d, p.x(), p.z()) || std::abs(p.z()) < 0.012) continue;
+      double& region = p.z() < 0.0 ? medial : lateral;
+      region = std::min(region, p.y() - sim::insertSurfaceHeight(d, p.x(), p.z()));
+    }
+    EXPECT_LT(std::min(medial, lateral), 5e-5) << flexion << " deg: neither condyle touches";
+    EXPECT_LT(std::max(medial, lateral), 3.5e-3) << flexion << " deg: a condyle lifts off too far";
+    EXPECT_GT(std::min(medial, lateral), -5e-5) << flexion << " deg: a condyle penetrates";
+  }
+}

@@ -220,3 +220,69 @@ TEST(TrialSimulator, MarkerGridAndPlatformAddLabFixedClutter) {
   markers.marker_grid_spacing_mm = 2.0;  // not more than the beads' diameter
   EXPECT_THROW_WITH(sim::TrialSimulator{markers}, "marker_grid_spacing_mm");
 }
+
+// Another implant design: config/robustness/kneel_implants.yaml reads the real vendor models of
+// the JointTrack Kneel study and turns them into the components' ISB frames (their meshes have
+// X posterior; the tray's origin lies 3 mm below its plate).
+TEST(TrialSimulator, ImplantModelsFromFilesArePlacedInTheComponentsFrames) {
+  sim::TrialSimulatorSettings s = sim::loadSimulatorSettings(
+      std::string(FLUORO_SOURCE_DIR) + "/config/robustness/kneel_implants.yaml");
+  EXPECT_EQ(s.implant_meshes.femoral_component.path,
+            test_support::sharedData("jointtrack_kneel/KR_right_7_fem.stl"));
+  EXPECT_TRUE(s.implant_meshes.tibial_insert.path.empty());
+  s.image_width = s.image_height = 512;
+  s.pixel_spacing_mm = 0.76;
+  s.motion.frames = 5;
+  const sim::TrialSimulator simulator(s);
+  const sim::KneeImplantSet& implants = simulator.implants();
+  EXPECT_TRUE(implants.insert_generated);
+  // The anterior flange (the mesh's -X) is now at +X; the condyles still point down (-Y).
+  const Eigen::AlignedBox3d femur = implants.femoral_component.bounds();
+  EXPECT_NEAR(femur.max().x(), 0.0422, 5e-4);
+  EXPECT_NEAR(femur.min().x(), -0.0249, 5e-4);
+  EXPECT_NEAR(femur.min().y(), -0.0249, 5e-4);
+  // The tray's plate is at the tibia frame's origin, its stem below.
+  const Eigen::AlignedBox3d tray = implants.tibial_tray.bounds();
+  EXPECT_NEAR(tray.max().y(), 0.0, 1e-6);
+  EXPECT_NEAR(tray.min().y(), -0.0327, 5e-4);
+  EXPECT_EQ(implants.femoral_component.triangles().size(), 12412u);
+  // In every frame the femoral component rests on the insert fitted to it.
+  const sim::KneeContactSolver contact(implants, s.implants);
+  for (int i = 0; i < simulator.frameCount(); ++i) {
+    const sim::SimulatedFrame frame = simulator.truth(i);
+    geometry::Pose tibia_from_femur = frame.tibia.inverse() * frame.femur;
+    tibia_from_femur.translation().y() += 0.0003;
+    EXPECT_FALSE(contact.collides(tibia_from_femur)) << "frame " << i;
+    tibia_from_femur.translation().y() -= 0.0006;
+    EXPECT_TRUE(contact.collides(tibia_from_femur)) << "frame " << i;
+  }
+  // The trial's models are the placed meshes.
+  TempDir dir;
+  simulator.writeModels(dir.file("models"));
+  const geometry::Mesh written = geometry::Mesh::load(dir.file("models/tibial_tray.stl"));
+  EXPECT_TRUE(written.bounds().max().isApprox(tray.max(), 1e-6));
+  EXPECT_TRUE(written.bounds().min().isApprox(tray.min(), 1e-6));
+}
+
+TEST(TrialSimulator, ImplantMeshSettingsNameTheirProblems) {
+  TempDir dir;
+  test_support::writeText(dir.file("typo.yaml"),
+                          "implant_meshes: {femoral_component: {file: a.stl}}\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("typo.yaml")),
+                    "implant_meshes.femoral_component: unknown key 'file'");
+  test_support::writeText(dir.file("nopath.yaml"), "implant_meshes: {tibial_tray: {}}\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("nopath.yaml")), "missing key 'path'");
+  test_support::writeText(dir.file("quat.yaml"),
+                          "implant_meshes: {tibial_tray: {path: t.stl, component_from_mesh: "
+                          "{position_m: [0, 0, 0], orientation_xyzw: [0, 2, 0, 0]}}}\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("quat.yaml")), "not a unit quaternion");
+  test_support::writeText(dir.file("units.yaml"), "implant_meshes: {units: inch}\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("units.yaml")), "inch");
+  // A file that is not there is named when the simulator loads it, relative paths resolved
+  // against the settings file's folder.
+  test_support::writeText(dir.file("absent.yaml"),
+                          "implant_meshes: {femoral_component: {path: absent.stl}}\n");
+  const auto s = sim::loadSimulatorSettings(dir.file("absent.yaml"));
+  EXPECT_EQ(s.implant_meshes.femoral_component.path, dir.file("absent.stl"));
+  EXPECT_THROW_WITH(sim::TrialSimulator{s}, "absent.stl");
+}
