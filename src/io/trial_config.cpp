@@ -228,6 +228,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "edge_offset_model",
                      "parameterisation",
                      "edge_offset_prior_px",
+                     "edge_offset_min_px",
                      "edge_offset_hold",
                      "edge_offset_tracking",
                      "contact_from_outer_iteration",
@@ -277,6 +278,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   std::string parameterisation = registration::parameterisationName(r.parameterisation);
   section.read("parameterisation", &parameterisation);
   section.read("edge_offset_prior_px", &r.edge_offset_prior_px);
+  section.read("edge_offset_min_px", &r.edge_offset_min_px);
   section.read("edge_offset_hold", &r.edge_offset_hold);
   const YamlSection offset_tracking = section.child("edge_offset_tracking");
   offset_tracking.allowOnly({"enabled", "frame_sd_px", "drift_px"});

@@ -300,6 +300,9 @@ PoseSearch::PoseSearch(std::shared_ptr<const Registrar> registrar, PoseSearchSet
   // Measured: starts tens of millimetres off along the beam fare better with the offset free at
   // every scale (RegistrationSettings::edge_offset_hold).
   refine.edge_offset_hold = false;
+  // ... and without a floor under it: the final joint registration has it
+  // (RegistrationSettings::edge_offset_min_px).
+  refine.edge_offset_min_px = -std::numeric_limits<double>::infinity();
   // Each start is one hypothesis among many; the search itself covers depth.
   refine.depth_retry.enabled = false;
   // Hypotheses are screened and chosen by their contour's inlier support; local equalisation

@@ -188,6 +188,14 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
   return pairs;
 }
 
+// How far below RegistrationSettings::edge_offset_min_px an offset may sink per unit of
+// residual (full-resolution pixels), a tenth of the offset prior's sigma. One offset per bone
+// is a compromise over its outline, so the image can still pull it a few tenths of a pixel
+// below the floor (the Kneel study's tray seen 8 deg obliquely: -0.33 px, 3.3 mm along the
+// beam, where the unbounded offset went to -0.62 px and 8.6 mm); a stiffer floor (0.02, 0.01
+// px) pushed that tray 2-3.5 mm the other way.
+constexpr double kEdgeOffsetFloorSigmaPx = 0.05;
+
 // Gaussian prior on an edge offset: residual (offset - mean) / sigma.
 class EdgeOffsetPriorCost : public ceres::SizedCostFunction<1, 1> {
  public:
@@ -202,6 +210,29 @@ class EdgeOffsetPriorCost : public ceres::SizedCostFunction<1, 1> {
 
  private:
   double mean_;
+  double inverse_sigma_;
+};
+
+// A floor under an edge offset (RegistrationSettings::edge_offset_min_px): residual
+// (floor - offset) / sigma below it, zero above, so the cost's gradient is continuous through
+// it. A soft floor rather than a Ceres bound: projected Levenberg-Marquardt steps against a
+// bound converged slowly (p95 time per frame doubled).
+class EdgeOffsetFloorCost : public ceres::SizedCostFunction<1, 1> {
+ public:
+  EdgeOffsetFloorCost(double floor, double inverse_sigma)
+      : floor_(floor), inverse_sigma_(inverse_sigma) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const bool below = parameters[0][0] < floor_;
+    residuals[0] = below ? inverse_sigma_ * (floor_ - parameters[0][0]) : 0.0;
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      jacobians[0][0] = below ? -inverse_sigma_ : 0.0;
+    }
+    return true;
+  }
+
+ private:
+  double floor_;
   double inverse_sigma_;
 };
 
@@ -440,6 +471,10 @@ void RegistrationSettings::validate() const {
   }
   if (!(edge_offset_prior_px >= 0.0)) {
     throw InputError("registration: edge_offset_prior_px must be >= 0");
+  }
+  if (std::isnan(edge_offset_min_px) ||
+      edge_offset_min_px == std::numeric_limits<double>::infinity()) {
+    throw InputError("registration: edge_offset_min_px must be a number or -.inf (no floor)");
   }
   if (!(edge_offset_tracking.frame_sd_px > 0.0) || !(edge_offset_tracking.drift_px >= 0.0)) {
     throw InputError("registration: edge_offset_tracking needs frame_sd_px > 0 and drift_px >= 0");
@@ -726,6 +761,12 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
       if (!finest && settings_.coarse_outer_iterations > 0) {
         outer_iterations = settings_.coarse_outer_iterations;
       }
+      // The offsets' floor (edge_offset_min_px) joins one outer iteration after the offsets are
+      // freed (edge_offset_hold), at the finest scale.
+      const int floor_outer = settings_.edge_offset_hold ? 2 : 1;
+      const auto floor_joined = [&](int outer) {
+        return finest && outer >= floor_outer && std::isfinite(settings_.edge_offset_min_px);
+      };
       for (int outer = 0; outer < outer_iterations; ++outer) {
         ++result.outer_iterations;
         std::vector<std::array<double, 6>> increments(bones_.size(), std::array<double, 6>{});
@@ -806,6 +847,12 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
               problem.AddResidualBlock(
                   new EdgeOffsetPriorCost(prior.mean_px * scale, 1.0 / (prior.sigma_px * scale)),
                   nullptr, offset);
+              if (floor_joined(outer)) {
+                problem.AddResidualBlock(
+                    new EdgeOffsetFloorCost(settings_.edge_offset_min_px * scale,
+                                            1.0 / (kEdgeOffsetFloorSigmaPx * scale)),
+                    nullptr, offset);
+              }
             } else {
               problem.SetParameterBlockConstant(offset);
             }
@@ -927,7 +974,22 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
           estimateCovariances(&problem, summary, compressed_away, increments, centres, linearised,
                               relative_parent, &result);
         }
-        if (converged) break;
+        if (converged) {
+          // Converged before the offsets' floor joined, with an offset below it: one outer
+          // iteration with the floor, so that no solve ends on an offset it forbids.
+          bool below_floor = false;
+          for (const auto& per_view : offsets) {
+            for (double o : per_view) {
+              below_floor = below_floor || o < settings_.edge_offset_min_px * scale - 1e-9;
+            }
+          }
+          if (with_offsets && finest && below_floor && outer < floor_outer &&
+              floor_outer < outer_iterations && !floor_joined(outer)) {
+            outer = floor_outer - 1;
+            continue;
+          }
+          break;
+        }
         if (gate != nullptr && !last_solve &&
             (summary.final_cost > gate->max_cost ||
              gate->deviation(result.poses) > gate->max_deviation)) {

@@ -521,8 +521,7 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
             ? "crude starts (femur +-3 mm in-plane, +-20 mm out-of-plane, +-5 deg; tibia +-3 mm, "
               "+-50 mm, +-5 deg in-plane, +-10 deg out-of-plane), success within 1.5 mm, 3/5 deg"
             : "start +-2 mm in-plane, +-3 mm out-of-plane, +-3 deg";
-    const std::string implants =
-        base.implant_meshes.any() ? " (implant models from files)" : "";
+    const std::string implants = base.implant_meshes.any() ? " (implant models from files)" : "";
     tallies[c].print("simulated " + std::string(views == 1 ? "single-plane" : "bi-plane") +
                      " total knee" + implants + ", " + std::to_string(trials) + " trial(s) x " +
                      std::to_string(frames) + " frame(s), " + trial_set + " images, " +
@@ -769,6 +768,9 @@ int main(int argc, char** argv) {
       "edge-offset-prior-px",
       po::value(&settings.edge_offset_prior_px)->default_value(settings.edge_offset_prior_px),
       "prior sigma of each bone's edge offset, pixels")(
+      "edge-offset-min-px",
+      po::value(&settings.edge_offset_min_px)->default_value(settings.edge_offset_min_px),
+      "lowest edge offset a solve may end on, pixels (+ inward; -inf: no floor)")(
       "edge-offset-hold",
       po::value(&settings.edge_offset_hold)->default_value(settings.edge_offset_hold),
       "hold the edge offset at zero until the finest scale's second outer iteration "

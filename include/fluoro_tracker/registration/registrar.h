@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -175,6 +176,26 @@ struct RegistrationSettings {
   enum class EdgeOffsetModel { kNone, kUniform };
   EdgeOffsetModel edge_offset_model = EdgeOffsetModel::kUniform;
   double edge_offset_prior_px = 0.5;  // full-resolution pixels
+  // The lowest offset a solve may end on (full-resolution pixels; -inf, the default: no floor),
+  // held by a stiff one-sided residual from one outer iteration after the offset is freed, at the
+  // finest scale (a solve that converged earlier with an offset below it runs that iteration).
+  // Why one would: an offset and a step along the beam change the outline almost alike, so a
+  // bone can slide along the beam with its offset, and a tibial tray's thin plate seen edge-on
+  // slides farthest (simulated trials with the Kneel study's real implant models, image only: the
+  // tray 7.6 mm RMS along the beam, up to 22 mm, with offsets down to -1.2 px), while at the true
+  // poses the offsets average 0.15-0.40 px (poses held, offsets solved; lowest -0.2 px). Why it
+  // is off: on the real Kneel frames the femoral component's offset is -0.48 px in every start
+  // (edges outside its model's outline), which a floor at 0 cannot hold (-0.35 px) and which,
+  // with a floor at 0 or -0.5 px, costs the tracked Kneel sequence shown inverted its third frame
+  // and the search its bright femoral component in deep flexion (images_to_bag_test,
+  // pose_search_test). Measured with a floor of 0 (benchmark, README "Registration"): along the
+  // beam, image only, 5.47 -> 3.29 mm on the Kneel implant models, 1.61 -> 1.42 mm on 8
+  // generated trials, success unchanged within a frame or two; crude starts on poor images
+  // 6.19 -> 4.01 mm but success 86.5 -> 86.0 % (seed 11) and 86 -> 83 % (seed 7); the tracked
+  // occluding-rod trial 22 -> 2 frames flagged, 3.78 -> 2.20 mm. The floor joins late because from
+  // the outer iteration that frees the offset it cost crude starts 3-5 points. The automatic
+  // search's refinements leave it unbounded.
+  double edge_offset_min_px = -std::numeric_limits<double>::infinity();
   // Hold the offset at zero until the finest scale's second outer iteration: while the contour
   // is still pixels away, a free offset fits it to whatever edges lie nearby and the pose
   // follows. Measured (benchmark, contact + ligaments): crude starts 78 -> 86 % success, poor

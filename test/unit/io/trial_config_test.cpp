@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 
 #include "../test_support.h"
 
@@ -311,6 +312,7 @@ registration:
   robust_scale_px: 3.0
   parameterisation: parent_relative
   edge_offset_hold: false
+  edge_offset_min_px: 0.0
   edge_offset_tracking: {enabled: false, frame_sd_px: 0.3, drift_px: 0.05}
   edges: {clahe: true, canny_high: 60}
   mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, solver_iterations: 5,
@@ -325,6 +327,7 @@ registration:
   EXPECT_EQ(c.registration.parameterisation,
             registration::RegistrationSettings::Parameterisation::kParentRelative);
   EXPECT_FALSE(c.registration.mirror_check.enabled);
+  EXPECT_EQ(c.registration.edge_offset_min_px, 0.0);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.cost_tolerance, 0.2);
   EXPECT_EQ(c.registration.mirror_check.outer_iterations, 3);
   EXPECT_EQ(c.registration.mirror_check.solver_iterations, 5);
@@ -385,6 +388,7 @@ registration:
   expectRegistrationRejected("{parameterisation: relative}",
                              "parameterisation 'relative' is not one of absolute, parent_relative");
   expectRegistrationRejected("{tracking_scales: []}", "tracking_scales must not be empty");
+  expectRegistrationRejected("{edge_offset_min_px: .nan}", "edge_offset_min_px must be a number");
   expectRegistrationRejected("{mirror_check: {cost_tolerance: -0.1}}", "mirror_check needs");
   expectRegistrationRejected("{mirror_check: {min_neutral_gain: -0.1}}", "min_neutral_gain >= 0");
   expectRegistrationRejected("{mirror_check: {abandon_cost_ratio: 0}}", "abandon_cost_ratio > 0");
@@ -426,6 +430,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.registration.edge_offset_model, d.edge_offset_model);
   EXPECT_EQ(c.registration.parameterisation, d.parameterisation);
   EXPECT_DOUBLE_EQ(c.registration.edge_offset_prior_px, d.edge_offset_prior_px);
+  EXPECT_DOUBLE_EQ(c.registration.edge_offset_min_px, d.edge_offset_min_px);
   EXPECT_EQ(c.registration.edge_offset_hold, d.edge_offset_hold);
   EXPECT_EQ(c.registration.contact_from_outer_iteration, d.contact_from_outer_iteration);
   EXPECT_EQ(c.registration.mirror_check.enabled, d.mirror_check.enabled);

@@ -1,5 +1,7 @@
 #include "fluoro_tracker/registration/registrar.h"
 
+#include <limits>
+
 #include <opencv2/imgproc.hpp>
 
 #include "../test_support.h"
@@ -829,4 +831,49 @@ TEST(Registrar, QualityLeavesOutContourCoveredByTheOtherBone) {
   }
   // Otherwise the test shows nothing: in deep flexion the silhouettes overlap.
   EXPECT_GE(overlapping, 1);
+}
+
+// The edge offset's floor (RegistrationSettings::edge_offset_min_px) on the Kneel study's real
+// tray seen 8 deg obliquely at 85 deg of flexion: with the offset unbounded the tray's thin plate
+// slides along the beam with its offset (about 8.6 mm, offset -0.6 px); with the floor it stays
+// within a few millimetres.
+TEST(Registrar, EdgeOffsetFloorKeepsAnObliqueTrayFromSlidingAlongTheBeam) {
+  sim::TrialSimulatorSettings s = sim::loadSimulatorSettings(
+      std::string(FLUORO_SOURCE_DIR) + "/config/robustness/kneel_implants.yaml");
+  s.motion.frames = 1;
+  s.motion.start_flexion_deg = s.motion.max_flexion_deg = 85.0;
+  s.view_yaw_deg = 8.0;
+  s.view_roll_deg = -5.0;
+  const sim::TrialSimulator simulator(s);
+  const std::vector<registration::BoneModel> bones = {
+      {"femur", std::make_shared<imaging::SilhouetteModel>(simulator.implants().femoral_component),
+       1.0},
+      {"tibia", std::make_shared<imaging::SilhouetteModel>(simulator.implants().tibial_tray), 1.0}};
+  const geometry::XrayCamera& camera = simulator.views()[0].camera;
+  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  std::mt19937_64 rng(5);
+  const auto frame = simulator.render(0, &rng);
+  const std::vector<registration::ViewImage> views = {{frame.images[0], camera}};
+  std::vector<Pose> start = {frame.femur, frame.tibia};
+  for (Pose& pose : start) {
+    Pose in_camera = camera_from_fixed * pose;
+    in_camera.translation().z() += 0.003;
+    in_camera.linear() =
+        geometry::rotationX(0.03) * geometry::rotationY(-0.03) * in_camera.linear();
+    pose = camera.worldFromCamera() * in_camera;
+  }
+  registration::RegistrationSettings settings;
+  settings.edge_offset_min_px = -std::numeric_limits<double>::infinity();
+  const auto unbounded = registration::Registrar(bones, settings).solve(views, start);
+  const auto unbounded_error =
+      registration::poseError(unbounded.poses[1], frame.tibia, camera_from_fixed);
+  ASSERT_GT(unbounded_error.translation_mm.z(), 6.0)
+      << "the tray must slide without the floor for the test to mean anything";
+  ASSERT_LT(unbounded.edge_offsets_px[1][0], -0.4);
+  settings.edge_offset_min_px = 0.0;
+  const auto floored = registration::Registrar(bones, settings).solve(views, start);
+  const auto error = registration::poseError(floored.poses[1], frame.tibia, camera_from_fixed);
+  EXPECT_LT(std::abs(error.translation_mm.z()), 4.5);
+  EXPECT_TRUE(registration::meetsSuccessCriterion(error));
+  EXPECT_GT(floored.edge_offsets_px[1][0], unbounded.edge_offsets_px[1][0] + 0.2);
 }
