@@ -102,6 +102,46 @@ TEST(ImagesToBag, TracksTheRealKneelFramesShownWithImplantsBright) {
   tracksTheKneelFrames(kKneel + "/1024");
 }
 
+// Each real frame registered on its own (track_bag --init-csv) from the lab's own automatic
+// guesses (FFT/*.jts, its Fourier-descriptor shape library: the femoral component 12-30 mm off
+// along the beam, the tray up to 6.5 deg off), with the knee's ligament envelope. The Kneel
+// models' mesh frames have X posterior, so each bone's anatomical frame is the mesh turned 180
+// deg about Y. Without the joint the third frame's tray ends 6 deg off.
+TEST(ImagesToBag, RegistersTheRealKneelFramesFromTheLabsAutomaticGuesses) {
+  TempDir out;
+  std::string output;
+  ASSERT_EQ(runImagesToBag(kneelImport(kKneel, out), &output), 0) << output;
+  ASSERT_EQ(runImagesToBag("--images " + kKneel + " --calibration " + kKneel +
+                               "/calibration.txt --output " + out.file("guesses.bag") +
+                               " --jts femur=" + kKneel + "/FFT/fem_fft.jts --jts tibia=" + kKneel +
+                               "/FFT/tib_fft.jts --reference-csv " + out.file("guesses.csv"),
+                           &output),
+            0)
+      << output;
+  std::string trial = test_support::readText(out.file("trial.yaml"));
+  const std::string units = "    mesh_units: mm\n";
+  for (std::size_t at = trial.find(units); at != std::string::npos;
+       at = trial.find(units, at + 1)) {
+    trial.insert(at + units.size(),
+                 "    anatomical_frame: {position_m: [0, 0, 0], orientation_xyzw: [0, 1, 0, 0]}\n");
+  }
+  trial +=
+      "joints:\n  - {name: knee, parent: femur, child: tibia, type: knee, side: right, "
+      "ligaments: {enabled: true}}\n";
+  test_support::writeText(out.file("knee.yaml"), trial);
+  ASSERT_EQ(runTrackBag("--config " + out.file("knee.yaml") + " --bag " + out.file("trial.bag") +
+                            " --init-csv " + out.file("guesses.csv") + " --poses-csv " +
+                            out.file("poses.csv") + " --truth-csv " + out.file("reference.csv") +
+                            " --kinematics-csv " + out.file("kinematics.csv"),
+                        &output),
+            0)
+      << output;
+  EXPECT_NE(output.find("3/3 frames within 1 mm in-plane"), std::string::npos) << output;
+  // Kneeling: about 108 deg of flexion.
+  const std::string kinematics = test_support::readText(out.file("kinematics.csv"));
+  EXPECT_NE(kinematics.find(",knee,107."), std::string::npos) << kinematics;
+}
+
 TEST(ImagesToBag, BagHoldsEachFrameWithItsCameraAndStamp) {
   TempDir out;
   std::string output;
