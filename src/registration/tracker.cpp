@@ -109,6 +109,9 @@ TrackedFrame Tracker::searchAndReset(const std::vector<ViewImage>& views) {
 }
 
 void Tracker::accept(TrackedFrame* frame) {
+  // The next frame's retry compares its own quality figures' status with this one's, before
+  // either is compared with the bone's recent frames.
+  previous_trouble_ = statusTrouble(frame->status);
   inlier_history_.classify(frame->result.quality, &frame->status);
   const bool first = poses_.empty();
   bool all_ok = true;
@@ -127,7 +130,6 @@ void Tracker::accept(TrackedFrame* frame) {
   if (first && any_lost) poses_.clear();  // not found yet: search again next frame
   recovering_ = any_lost && search_ != nullptr;
   poses_registered_ = !poses_.empty();
-  previous_trouble_ = statusTrouble(frame->status);
 }
 
 TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vector<bool>& loaded) {
@@ -166,9 +168,9 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
   frame.result =
       (poses_registered_ ? continuing_registrar_ : registrar_)->solve(views, guess, loaded, priors);
   const QualitySettings& quality = registrar_->settings().quality;
+  frame.status = classifyBones(frame.result, quality);
   if (poses_registered_ && continuing_registrar_ != registrar_ &&
-      registrar_->settings().tracking_retry &&
-      statusTrouble(classifyBones(frame.result, quality)) > previous_trouble_) {
+      registrar_->settings().tracking_retry && statusTrouble(frame.status) > previous_trouble_) {
     // The continued registration left the frame in more doubt than the last one (see
     // RegistrationSettings::tracking_retry): the full schedule, from the prediction and, when it
     // extrapolated, from the last good poses. (Doubt that persists, e.g. contour under an
@@ -185,11 +187,11 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
       }
       if (best_rank.first == 0) break;
     }
+    frame.status = classifyBones(frame.result, quality);
   }
   frame.solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   frame.poses = frame.result.poses;
-  frame.status = classifyBones(frame.result, quality);
   const bool any_lost =
       std::find(frame.status.begin(), frame.status.end(), "lost") != frame.status.end();
   if (any_lost && search_) {

@@ -82,9 +82,9 @@ class Tracker {
   std::vector<geometry::Pose> poses_;     // last good pose per bone
   std::vector<geometry::Pose> previous_;  // the good poses one frame earlier (empty: none)
   bool poses_registered_ = false;         // poses_ come from a registration, not the user
-  int previous_trouble_ = 0;              // statusTrouble of the last frame taken
-  EdgeOffsetFilter edge_offsets_;         // each bone's edge offset, carried between frames
-  InlierHistory inlier_history_;          // each bone's recent inlier fractions (its status)
+  int previous_trouble_ = 0;  // statusTrouble of the last frame taken (its classifyBones status)
+  EdgeOffsetFilter edge_offsets_;  // each bone's edge offset, carried between frames
+  InlierHistory inlier_history_;   // each bone's recent inlier fractions (its status)
 };
 
 }  // namespace registration
