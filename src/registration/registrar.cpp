@@ -984,7 +984,7 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
             }
           }
           if (with_offsets && finest && below_floor && outer < floor_outer &&
-              floor_outer < outer_iterations && !floor_joined(outer)) {
+              floor_outer < outer_iterations) {
             outer = floor_outer - 1;
             continue;
           }
