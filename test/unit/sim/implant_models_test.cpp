@@ -5,6 +5,22 @@
 
 using namespace fluoro_tracker;
 
+namespace {
+
+// The femur on the tibia at this flexion alone (no axial rotation, rollback or varus-valgus),
+// lowered onto the insert.
+geometry::Pose flexedOnTheInsert(double flexion_deg, const sim::KneeContactSolver& contact) {
+  sim::KneeMotionSettings motion;
+  motion.frames = 1;
+  motion.start_flexion_deg = motion.max_flexion_deg = flexion_deg;
+  motion.internal_rotation_at_max_deg = 0.0;
+  motion.rollback_at_max_mm = 0.0;
+  motion.adduction_amplitude_deg = 0.0;
+  return sim::kneePoseAt(motion, 0, contact).tibia_from_femur;
+}
+
+}  // namespace
+
 TEST(ImplantModels, ComponentsAreClosedAndOfRealisticSize) {
   const sim::KneeImplantSet set = sim::makeKneeImplants();
   for (const auto* mesh : {&set.femoral_component, &set.tibial_tray, &set.tibial_insert}) {
@@ -86,13 +102,7 @@ TEST(KneeMotion, BothCondylesRestInTheirTracks) {
   const sim::KneeImplantSet set = sim::makeKneeImplants(d);
   const sim::KneeContactSolver contact(set, d);
   for (double flexion : {0.0, 30.0, 60.0, 90.0, 120.0}) {
-    sim::KneeMotionSettings motion;
-    motion.frames = 1;
-    motion.start_flexion_deg = motion.max_flexion_deg = flexion;
-    motion.internal_rotation_at_max_deg = 0.0;
-    motion.rollback_at_max_mm = 0.0;
-    motion.adduction_amplitude_deg = 0.0;
-    const geometry::Pose tibia_from_femur = sim::kneePoseAt(motion, 0, contact).tibia_from_femur;
+    const geometry::Pose tibia_from_femur = flexedOnTheInsert(flexion, contact);
     double medial = 1e9, lateral = 1e9, central = 1e9;  // smallest clearance per region (m)
     for (const auto& v : set.femoral_component.vertices()) {
       const Eigen::Vector3d p = tibia_from_femur * v;
@@ -139,13 +149,7 @@ TEST(KneeMotion, TheKneelStudysComponentsRestOnTheirInsertWithBoundedLiftOff) {
   const sim::KneeImplantSet set = sim::makeKneeImplants(d, files);
   const sim::KneeContactSolver contact(set, d);
   for (double flexion : {0.0, 30.0, 60.0, 90.0, 120.0}) {
-    sim::KneeMotionSettings motion;
-    motion.frames = 1;
-    motion.start_flexion_deg = motion.max_flexion_deg = flexion;
-    motion.internal_rotation_at_max_deg = 0.0;
-    motion.rollback_at_max_mm = 0.0;
-    motion.adduction_amplitude_deg = 0.0;
-    const geometry::Pose tibia_from_femur = sim::kneePoseAt(motion, 0, contact).tibia_from_femur;
+    const geometry::Pose tibia_from_femur = flexedOnTheInsert(flexion, contact);
     double medial = 1e9, lateral = 1e9;  // smallest clearance per condyle (m)
     for (const auto& v : set.femoral_component.vertices()) {
       const Eigen::Vector3d p = tibia_from_femur * v;
