@@ -49,6 +49,7 @@ std::vector<std::pair<std::string, std::string>> namedValues(const std::vector<s
 struct ViewInput {
   std::vector<std::string> files;
   io::ViewCalibration calibration;
+  cv::Mat first;  // the first frame, read for the view's size; written with frame 0
   int width = 0;
   int height = 0;
 };
@@ -123,9 +124,9 @@ int main(int argc, char** argv) {
     for (std::size_t v = 0; v < view_count; ++v) {
       ViewInput& input = inputs[v];
       input.files = io::listImageFiles(image_dirs[v]);
-      const cv::Mat first = io::readFluoroImage(input.files.front());
-      input.width = first.cols;
-      input.height = first.rows;
+      input.first = io::readFluoroImage(input.files.front());
+      input.width = input.first.cols;
+      input.height = input.first.rows;
       const std::string name = io::fluoroViewName(v, view_count);
       input.calibration = io::loadViewCalibration(calibration_paths[v], input.width, input.height,
                                                   io::opticalFrameId(name));
@@ -180,7 +181,7 @@ int main(int argc, char** argv) {
       std::vector<cv::Mat> images;
       for (std::size_t v = 0; v < view_count; ++v) {
         const std::string& file = inputs[v].files[static_cast<std::size_t>(f)];
-        cv::Mat image = io::readFluoroImage(file);
+        cv::Mat image = f == 0 ? std::move(inputs[v].first) : io::readFluoroImage(file);
         if (image.cols != inputs[v].width || image.rows != inputs[v].height) {
           throw InputError("image '" + file + "' is " + std::to_string(image.cols) + "x" +
                            std::to_string(image.rows) + ", the view's first frame " +
