@@ -10,6 +10,56 @@
 namespace fluoro_tracker {
 namespace registration {
 
+double integratedAutocorrelation(const std::vector<std::vector<double>>& sequences) {
+  constexpr int kMaxLag = 200;
+  std::vector<std::vector<double>> centred;
+  double variance_sum = 0.0;
+  double raw_squares = 0.0;  // for a spread threshold relative to the values' size
+  int count = 0;
+  for (const auto& sequence : sequences) {
+    double sum = 0.0;
+    int n = 0;
+    for (double x : sequence) {
+      if (std::isfinite(x)) {
+        sum += x;
+        raw_squares += x * x;
+        ++n;
+      }
+    }
+    if (n < 2) continue;
+    const double mean = sum / n;
+    centred.emplace_back();
+    for (double x : sequence) centred.back().push_back(x - mean);
+    for (double x : centred.back()) {
+      if (std::isfinite(x)) variance_sum += x * x;
+    }
+    count += n;
+  }
+  // Rounding leaves a constant sequence a spread of ~1e-32 of its square.
+  if (count < 2 || !(variance_sum > 1e-20 * raw_squares) || !(variance_sum > 0.0)) return 1.0;
+  const double variance = variance_sum / count;
+  double tau = 1.0;
+  for (int lag = 1; lag <= kMaxLag; ++lag) {
+    double products = 0.0;
+    int pairs = 0;
+    for (const auto& sequence : centred) {
+      for (std::size_t i = 0; i + lag < sequence.size(); ++i) {
+        const double a = sequence[i];
+        const double b = sequence[i + lag];
+        if (std::isfinite(a) && std::isfinite(b)) {
+          products += a * b;
+          ++pairs;
+        }
+      }
+    }
+    if (pairs == 0) break;
+    const double rho = products / pairs / variance;
+    if (!(rho > 0.0)) break;
+    tau += 2.0 * rho;
+  }
+  return tau;
+}
+
 void QualitySettings::validate() const {
   const auto fraction = [](double value, const char* name) {
     if (!(value >= 0.0 && value <= 1.0)) {

@@ -347,6 +347,8 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
   BoneQuality quality;
   int inliers = 0;
   double squared = 0.0;
+  // Per view, each sample's signed edge distance in contour order (NaN: not an inlier).
+  std::vector<std::vector<double>> signed_distances(maps.size());
   for (std::size_t v = 0; v < maps.size(); ++v) {
     const imaging::EdgeMap& map = maps[v];
     const geometry::XrayCamera& camera = map.camera();
@@ -376,20 +378,24 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
     for (const Eigen::Vector2d& pixel : pixels) {
       if (covered(pixel)) {
         ++quality.covered_points;
+        signed_distances[v].push_back(std::numeric_limits<double>::quiet_NaN());  // a gap
         continue;
       }
       ++quality.contour_points;
       double d = 0.0;
       double du = 0.0;
       double dv = 0.0;
+      signed_distances[v].push_back(std::numeric_limits<double>::quiet_NaN());
       if (!map.sample(pixel.x(), pixel.y(), &d, &du, &dv)) continue;
-      d = std::abs(d) / map.scale();
-      if (d <= inlier_px) {
+      d /= map.scale();
+      if (std::abs(d) <= inlier_px) {
         ++inliers;
         squared += d * d;
+        signed_distances[v].back() = d;
       }
     }
   }
+  quality.residual_correlation_samples = integratedAutocorrelation(signed_distances);
   if (quality.contour_points > 0) {
     quality.contour_inlier_fraction = static_cast<double>(inliers) / quality.contour_points;
   }
@@ -1065,6 +1071,9 @@ void Registrar::finish(const std::vector<ViewImage>& views, Solution* solution) 
                                           solution->contour_model_points[b], covering,
                                           settings_.quality.inlier_distance_px));
     if (b < result.covariance_valid.size() && result.covariance_valid[b]) {
+      // The solver counts every contour sample as independent; neighbours share blur, the
+      // silhouette's shape and the edge offset's pattern along it (see BoneQuality).
+      result.covariances[b] *= result.quality.back().residual_correlation_samples;
       addCovarianceQuality(result.covariances[b], result.poses[b], views.front().camera,
                            &result.quality.back());
     }

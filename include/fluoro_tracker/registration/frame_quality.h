@@ -28,6 +28,11 @@ struct BoneQuality {
   // The largest rotational standard deviation (rad, any axis): single-plane, a rotation about
   // an axis across the beam (e.g. a tibial tray's tilt seen edge-on). Negative when not computed.
   double max_rotation_sd_rad = -1.0;
+  // How many contour samples one independent residual is worth: the integrated autocorrelation
+  // of the inliers' signed edge distances along the contour (1 + 2 sum of the lag
+  // correlations up to the first that is not positive; 1 for uncorrelated residuals). The
+  // solver's covariance treats every sample as independent; the reported one is scaled by it.
+  double residual_correlation_samples = 1.0;
 };
 
 // How plausible one joint is at the final poses.
@@ -76,6 +81,13 @@ double envelopeViolation(const constraints::LigamentSettings& ligaments,
                          const kinematics::KneeCoordinates& coordinates);
 
 // A joint's status from its two bones': lost if either is, ok if both are, else suspect.
+// The integrated autocorrelation 1 + 2 sum_k rho_k of one or more sequences (NaN entries are
+// gaps: pairs with a gap are skipped), the lag correlations pooled over the sequences, each
+// about its own mean, summed up to the first lag whose correlation is not positive (Geyer's
+// initial positive sequence) and at most 200 lags: how many consecutive samples one independent
+// sample is worth. 1 for fewer than two finite samples or no spread.
+double integratedAutocorrelation(const std::vector<std::vector<double>>& sequences);
+
 std::string combinedStatus(const std::string& parent, const std::string& child);
 
 // How much of a result is in doubt, for choosing between results of one frame: its bones not

@@ -1,6 +1,7 @@
 #include "fluoro_tracker/registration/frame_quality.h"
 
 #include <limits>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -86,4 +87,36 @@ TEST(FrameQuality, TroubleCountsBonesNotOkWithALostOneTwice) {
   EXPECT_EQ(registration::statusTrouble({"ok", "suspect"}), 1);
   EXPECT_EQ(registration::statusTrouble({"lost", "suspect"}), 3);
   EXPECT_EQ(registration::statusTrouble({}), 0);
+}
+
+// Independent residuals are worth one sample each; an AR(1) sequence with coefficient phi is
+// worth (1 + phi) / (1 - phi) consecutive samples per independent one.
+TEST(FrameQuality, ResidualCorrelationCountsTheSamplesOneIndependentResidualIsWorth) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::vector<double> white(20000);
+  for (double& x : white) x = noise(rng);
+  EXPECT_NEAR(registration::integratedAutocorrelation({white}), 1.0, 0.1);
+
+  const double phi = 0.8;
+  std::vector<double> correlated(20000);
+  double x = 0.0;
+  for (double& y : correlated) y = x = phi * x + noise(rng);
+  const double expected = (1.0 + phi) / (1.0 - phi);
+  EXPECT_NEAR(registration::integratedAutocorrelation({correlated}), expected, 0.15 * expected);
+
+  // Gaps (samples off the edges) split nothing but their own pairs; two views pool.
+  std::vector<double> gapped = correlated;
+  for (std::size_t i = 0; i < gapped.size(); i += 50) {
+    gapped[i] = std::numeric_limits<double>::quiet_NaN();
+  }
+  const std::vector<double> half_a(correlated.begin(), correlated.begin() + 10000);
+  const std::vector<double> half_b(correlated.begin() + 10000, correlated.end());
+  EXPECT_NEAR(registration::integratedAutocorrelation({gapped}), expected, 0.15 * expected);
+  EXPECT_NEAR(registration::integratedAutocorrelation({half_a, half_b}), expected, 0.15 * expected);
+
+  // Nothing to measure: one sample, no spread.
+  EXPECT_EQ(registration::integratedAutocorrelation({{1.0}}), 1.0);
+  EXPECT_EQ(registration::integratedAutocorrelation({std::vector<double>(100, 0.3)}), 1.0);
+  EXPECT_EQ(registration::integratedAutocorrelation({}), 1.0);
 }

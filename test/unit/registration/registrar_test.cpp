@@ -320,6 +320,17 @@ TEST(Registrar, CovarianceIsLargestAlongTheBeam) {
     EXPECT_GT(c(2, 2), 10.0 * c(1, 1)) << scene.bones[b].name;
     // In-plane standard deviation well under a millimetre.
     EXPECT_LT(std::sqrt(c(0, 0)), 0.001);
+    // Neighbouring contour samples' residuals are correlated (blur, the outline's shape), so
+    // the covariance is widened by more than one sample's worth, and the reported
+    // out-of-plane standard deviation then covers the actual error along the beam.
+    const double correlation = result.quality[b].residual_correlation_samples;
+    EXPECT_GT(correlation, 1.5) << scene.bones[b].name;
+    EXPECT_LT(correlation, 201.0) << scene.bones[b].name;
+    const Eigen::Vector3d error_in_camera =
+        scene.simulator.views()[0].camera.worldFromCamera().inverse().linear() *
+        (result.poses[b].translation() - truth[b].translation());
+    EXPECT_LT(std::abs(error_in_camera.z()), 3.0 * result.quality[b].out_of_plane_sd_m)
+        << scene.bones[b].name;
   }
   // Off by default.
   EXPECT_TRUE(registration::Registrar(scene.bones, registration::RegistrationSettings())
