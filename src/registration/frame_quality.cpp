@@ -36,7 +36,7 @@ double integratedAutocorrelation(const std::vector<std::vector<double>>& sequenc
     count += n;
   }
   // Rounding leaves a constant sequence a spread of ~1e-32 of its square.
-  if (count < 2 || !(variance_sum > 1e-20 * raw_squares) || !(variance_sum > 0.0)) return 1.0;
+  if (count < 2 || !(variance_sum > 1e-20 * raw_squares)) return 1.0;
   const double variance = variance_sum / count;
   double tau = 1.0;
   for (int lag = 1; lag <= kMaxLag; ++lag) {

@@ -339,11 +339,13 @@ void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& 
 // masks on map v's pixels) are not counted: where one implant crosses another their edges
 // fade, so a femoral component over the tray in flexion would lose a fifth of its inliers to
 // the overlap alone, and the fraction would follow the motion rather than the fit.
+// `residual_correlation`: also measure BoneQuality::residual_correlation_samples (for the
+// covariance only; its lag sums are the costliest part here).
 BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geometry::Pose& pose,
                          const std::vector<imaging::EdgeMap>& maps,
                          const std::vector<std::vector<Eigen::Vector3d>>& model_points,
-                         const std::vector<std::vector<const cv::Mat*>>& covering,
-                         double inlier_px) {
+                         const std::vector<std::vector<const cv::Mat*>>& covering, double inlier_px,
+                         bool residual_correlation) {
   BoneQuality quality;
   int inliers = 0;
   double squared = 0.0;
@@ -376,16 +378,15 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
       return false;
     };
     for (const Eigen::Vector2d& pixel : pixels) {
+      signed_distances[v].push_back(std::numeric_limits<double>::quiet_NaN());  // a gap unless set
       if (covered(pixel)) {
         ++quality.covered_points;
-        signed_distances[v].push_back(std::numeric_limits<double>::quiet_NaN());  // a gap
         continue;
       }
       ++quality.contour_points;
       double d = 0.0;
       double du = 0.0;
       double dv = 0.0;
-      signed_distances[v].push_back(std::numeric_limits<double>::quiet_NaN());
       if (!map.sample(pixel.x(), pixel.y(), &d, &du, &dv)) continue;
       d /= map.scale();
       if (std::abs(d) <= inlier_px) {
@@ -395,7 +396,9 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
       }
     }
   }
-  quality.residual_correlation_samples = integratedAutocorrelation(signed_distances);
+  if (residual_correlation) {
+    quality.residual_correlation_samples = integratedAutocorrelation(signed_distances);
+  }
   if (quality.contour_points > 0) {
     quality.contour_inlier_fraction = static_cast<double>(inliers) / quality.contour_points;
   }
@@ -1067,9 +1070,9 @@ void Registrar::finish(const std::vector<ViewImage>& views, Solution* solution) 
         if (o != b && !silhouettes[v][o].empty()) covering[v].push_back(&silhouettes[v][o]);
       }
     }
-    result.quality.push_back(imageQuality(*bones_[b].silhouette, result.poses[b], maps,
-                                          solution->contour_model_points[b], covering,
-                                          settings_.quality.inlier_distance_px));
+    result.quality.push_back(imageQuality(
+        *bones_[b].silhouette, result.poses[b], maps, solution->contour_model_points[b], covering,
+        settings_.quality.inlier_distance_px, settings_.compute_covariance));
     if (b < result.covariance_valid.size() && result.covariance_valid[b]) {
       // The solver counts every contour sample as independent; neighbours share blur, the
       // silhouette's shape and the edge offset's pattern along it (see BoneQuality).

@@ -32,6 +32,7 @@ struct BoneQuality {
   // of the inliers' signed edge distances along the contour (1 + 2 sum of the lag
   // correlations up to the first that is not positive; 1 for uncorrelated residuals). The
   // solver's covariance treats every sample as independent; the reported one is scaled by it.
+  // Measured only with the covariance (RegistrationSettings::compute_covariance); 1 otherwise.
   double residual_correlation_samples = 1.0;
 };
 
@@ -80,7 +81,6 @@ struct QualitySettings {
 double envelopeViolation(const constraints::LigamentSettings& ligaments,
                          const kinematics::KneeCoordinates& coordinates);
 
-// A joint's status from its two bones': lost if either is, ok if both are, else suspect.
 // The integrated autocorrelation 1 + 2 sum_k rho_k of one or more sequences (NaN entries are
 // gaps: pairs with a gap are skipped), the lag correlations pooled over the sequences, each
 // about its own mean, summed up to the first lag whose correlation is not positive (Geyer's
@@ -88,6 +88,7 @@ double envelopeViolation(const constraints::LigamentSettings& ligaments,
 // sample is worth. 1 for fewer than two finite samples or no spread.
 double integratedAutocorrelation(const std::vector<std::vector<double>>& sequences);
 
+// A joint's status from its two bones': lost if either is, ok if both are, else suspect.
 std::string combinedStatus(const std::string& parent, const std::string& child);
 
 // How much of a result is in doubt, for choosing between results of one frame: its bones not
