@@ -97,7 +97,10 @@ std::array<std::string, 6> ligamentKeys(kinematics::JointType type) {
 // Bounds on the type's first angle <-> on the knee's flexion, which the springs act on.
 constraints::CoordinateBounds firstAngleBounds(kinematics::JointType type,
                                                const constraints::CoordinateBounds& bounds) {
-  if (kinematics::firstAngleSign(type) > 0.0) return bounds;
+  // A glenohumeral joint's springs act on its own Euler angles (glenohumeral_springs.h).
+  if (!kinematics::hasKneeFrameCoordinates(type) || kinematics::firstAngleSign(type) > 0.0) {
+    return bounds;
+  }
   return {-bounds.upper, -bounds.lower};
 }
 
@@ -111,12 +114,6 @@ constraints::LigamentSettings readLigamentSettings(const YAML::Node& joint,
   if (!node) {
     l.enabled = false;
     return l;
-  }
-  if (!kinematics::hasKneeCoordinates(type)) {
-    throw InputError(context + ": ligament springs are not available for " +
-                     kinematics::jointTypeName(type) +
-                     " joints (they act on joint coordinates of the knee's axes: the proximal "
-                     "bone's Z, the distal bone's Y)");
   }
   if (type != kinematics::JointType::kKnee) l.bounds = {};
   const YamlSection section(node, context + ".ligaments");
@@ -521,8 +518,8 @@ void saveTrialConfig(const std::string& path, const TrialConfig& config) {
       }
       out << YAML::EndMap;
       const kinematics::JointType type = kinematics::jointTypeFromName(joint.type);
-      // Glenohumeral and patellofemoral joints take no springs (readLigamentSettings).
-      if (kinematics::hasKneeCoordinates(type)) {
+      // A shoulder without springs holds no bounds of its own (readLigamentSettings).
+      if (joint.ligaments.enabled || kinematics::hasKneeFrameCoordinates(type)) {
         const constraints::LigamentSettings& l = joint.ligaments;
         out << YAML::Key << "ligaments" << YAML::Value << YAML::BeginMap;
         out << YAML::Key << "enabled" << YAML::Value << l.enabled;

@@ -42,10 +42,6 @@ TrialModels loadTrialModels(const TrialConfig& config) {
     model.side = joint.side;
     model.parent_anatomical = config.bones[model.parent].anatomical_frame;
     model.child_anatomical = config.bones[model.child].anatomical_frame;
-    if (joint.ligaments.enabled && !kinematics::hasKneeCoordinates(model.type)) {
-      throw InputError("joint '" + joint.name + "': ligament springs are not available for " +
-                       joint.type + " joints");
-    }
     model.ligaments = joint.ligaments;
     if (joint.contact.enabled) {
       try {

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/kinematics/glenohumeral_angles.h"
 
 namespace fluoro_tracker {
 namespace kinematics {
@@ -13,8 +14,10 @@ struct Convention {
   const char* name;
   JointCoordinateNames names;
   // Relative to the knee's flexion (the others keep the knee's signs); 0: not the knee's
-  // coordinates of the same frames (hasKneeCoordinates).
+  // coordinates of any turn of the frames (hasKneeFrameCoordinates).
   double first_angle_sign;
+  // The knee's coordinates of the frames turned by patellaTurn, not of the frames themselves.
+  bool patella_turned = false;
 };
 
 const std::array<Convention, 8>& conventions() {
@@ -35,7 +38,8 @@ const std::array<Convention, 8>& conventions() {
       {JointType::kPatellofemoral,
        "patellofemoral",
        {{"flexion", "lateral_tilt", "medial_rotation"}, {"distal", "anterior", "lateral"}},
-       0.0},
+       1.0,
+       true},
       // Not of the Grood & Suntay kind: see glenohumeralCoordinates.
       {JointType::kGlenohumeral,
        "glenohumeral",
@@ -67,30 +71,16 @@ geometry::Pose mirroredThroughSagittalPlane(const geometry::Pose& relative) {
   return geometry::makePose(mirror * relative.linear() * mirror, mirror * relative.translation());
 }
 
-// ISB Y-X-Y: r = Ry(a) Rx(b) Ry(g), so r(1,1) = cos b, r(0,1) = sin a sin b,
-// r(2,1) = cos a sin b, r(1,0) = sin b sin g, r(1,2) = -sin b cos g; b is taken <= 0.
+// The ISB's Y-X-Y angles (glenohumeralCoordinatesInScapulaFrame) of the humerus in the scapula.
 KneeCoordinates glenohumeralCoordinates(const geometry::Pose& scapula,
                                         const geometry::Pose& humerus, Side side) {
-  geometry::Pose relative = scapula.inverse() * humerus;
-  if (side == Side::kLeft) relative = mirroredThroughSagittalPlane(relative);
-  const Eigen::Matrix3d r = relative.linear();
-  KneeCoordinates out;
-  const double sin_b = -std::hypot(r(0, 1), r(2, 1));  // b in [-pi, 0]
-  out.adduction_rad = std::atan2(sin_b, r(1, 1));
-  // Below this the first and third axes are one to machine precision: all of it is the third.
-  if (-sin_b > 1e-12) {
-    out.flexion_rad = std::atan2(-r(0, 1), -r(2, 1));
-    out.internal_rotation_rad = std::atan2(-r(1, 0), r(1, 2));
-  } else {
-    // With a = 0: r = Ry(g) (b = 0) or Rx(-pi) Ry(g) (b = -pi); either way r(0,0) = cos g and
-    // r(0,2) = sin g.
-    out.flexion_rad = 0.0;
-    out.internal_rotation_rad = std::atan2(r(0, 2), r(0, 0));
-  }
-  out.x_m = relative.translation().x();
-  out.y_m = relative.translation().y();
-  out.z_m = relative.translation().z();
-  return out;
+  const geometry::Pose relative = scapula.inverse() * humerus;
+  Eigen::Matrix3d r = relative.linear();
+  Eigen::Vector3d t = relative.translation();
+  glenohumeralAsRight(side, &r, &t);
+  double c[6];
+  glenohumeralCoordinatesInScapulaFrame(r, t, c);
+  return {c[0], c[1], c[2], c[3], c[4], c[5]};
 }
 
 }  // namespace
@@ -112,12 +102,26 @@ const JointCoordinateNames& coordinateNames(JointType type) {
   return conventionOf(type).names;
 }
 
-bool hasKneeCoordinates(JointType type) {
+bool hasKneeFrameCoordinates(JointType type) {
   return conventionOf(type).first_angle_sign != 0.0;
 }
 
+bool hasKneeCoordinates(JointType type) {
+  return hasKneeFrameCoordinates(type) && !conventionOf(type).patella_turned;
+}
+
+const geometry::Pose& kneeFrameTurn(JointType type) {
+  static const geometry::Pose identity = geometry::Pose::Identity();
+  if (!hasKneeFrameCoordinates(type)) {
+    throw InputError(
+        jointTypeName(type) +
+        " coordinates are an Euler sequence, not the knee's of any turn of the frames");
+  }
+  return conventionOf(type).patella_turned ? patellaTurn() : identity;
+}
+
 double firstAngleSign(JointType type) {
-  if (!hasKneeCoordinates(type)) {
+  if (!hasKneeFrameCoordinates(type)) {
     throw InputError(jointTypeName(type) +
                      " coordinates come from the bones' poses, not the knee's");
   }
@@ -125,6 +129,10 @@ double firstAngleSign(JointType type) {
 }
 
 KneeCoordinates inJointConvention(JointType type, const KneeCoordinates& knee) {
+  if (!hasKneeCoordinates(type)) {
+    throw InputError(jointTypeName(type) +
+                     " coordinates come from the bones' poses, not the knee's of the same frames");
+  }
   KneeCoordinates out = knee;
   out.flexion_rad *= firstAngleSign(type);
   return out;

@@ -4,6 +4,8 @@
 #include <ceres/autodiff_cost_function.h>
 #include <ceres/rotation.h>
 
+#include "fluoro_tracker/constraints/glenohumeral_springs.h"
+
 namespace fluoro_tracker {
 namespace registration {
 namespace {
@@ -44,21 +46,46 @@ struct JointFrames {
     movedFrame(child_frame, child_centre, child_increment, &m.child_r, &m.child_o);
     return m;
   }
+
+  // The moved child frame's rotation and origin in the moved parent frame.
+  template <typename T>
+  void relative(const T* parent_increment, const T* child_increment, Eigen::Matrix<T, 3, 3>* r,
+                Eigen::Matrix<T, 3, 1>* t) const {
+    const Moved<T> m = moved(parent_increment, child_increment);
+    *r = m.parent_r.transpose() * m.child_r;
+    *t = m.parent_r.transpose() * (m.child_o - m.parent_o);
+  }
 };
 
 struct KneeLigamentResiduals {
+  constraints::LigamentSettings settings;
+  kinematics::Side side;
+  JointFrames frames;  // the knee frames (JointModel::parentKneeFrame)
+
+  template <typename T>
+  bool operator()(const T* parent_increment, const T* child_increment, T* residuals) const {
+    Eigen::Matrix<T, 3, 3> relative_r;
+    Eigen::Matrix<T, 3, 1> relative_t;
+    frames.relative(parent_increment, child_increment, &relative_r, &relative_t);
+    T coordinates[6];
+    kinematics::kneeCoordinatesInFemurFrame<T>(relative_r, relative_t, side, coordinates);
+    constraints::ligamentResiduals(settings, coordinates, residuals);
+    return true;
+  }
+};
+
+struct GlenohumeralLigamentResiduals {
   constraints::LigamentSettings settings;
   kinematics::Side side;
   JointFrames frames;  // the anatomical frames
 
   template <typename T>
   bool operator()(const T* parent_increment, const T* child_increment, T* residuals) const {
-    const auto m = frames.moved(parent_increment, child_increment);
-    const Eigen::Matrix<T, 3, 3> relative_r = m.parent_r.transpose() * m.child_r;
-    const Eigen::Matrix<T, 3, 1> relative_t = m.parent_r.transpose() * (m.child_o - m.parent_o);
-    T coordinates[6];
-    kinematics::kneeCoordinatesInFemurFrame<T>(relative_r, relative_t, side, coordinates);
-    constraints::ligamentResiduals(settings, coordinates, residuals);
+    Eigen::Matrix<T, 3, 3> relative_r;
+    Eigen::Matrix<T, 3, 1> relative_t;
+    frames.relative(parent_increment, child_increment, &relative_r, &relative_t);
+    kinematics::glenohumeralAsRight(side, &relative_r, &relative_t);
+    constraints::glenohumeralSpringResiduals(settings, relative_r, relative_t, residuals);
     return true;
   }
 };
@@ -99,6 +126,17 @@ ceres::CostFunction* makeKneeLigamentCost(const constraints::LigamentSettings& s
                                           const Eigen::Vector3d& child_centre) {
   return new ceres::AutoDiffCostFunction<KneeLigamentResiduals, 6, 6, 6>(new KneeLigamentResiduals{
       settings, side, {parent_frame, parent_centre, child_frame, child_centre}});
+}
+
+ceres::CostFunction* makeGlenohumeralLigamentCost(const constraints::LigamentSettings& settings,
+                                                  kinematics::Side side,
+                                                  const geometry::Pose& parent_frame,
+                                                  const Eigen::Vector3d& parent_centre,
+                                                  const geometry::Pose& child_frame,
+                                                  const Eigen::Vector3d& child_centre) {
+  return new ceres::AutoDiffCostFunction<GlenohumeralLigamentResiduals, 6, 6, 6>(
+      new GlenohumeralLigamentResiduals{
+          settings, side, {parent_frame, parent_centre, child_frame, child_centre}});
 }
 
 }  // namespace registration

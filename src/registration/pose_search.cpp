@@ -157,13 +157,13 @@ ScreeningScores screeningScores(const imaging::SilhouetteModel& silhouette,
 // The pose of the missing bone of a joint for given joint coordinates and the other's pose.
 geometry::Pose jointPartner(const JointModel& joint, const geometry::Pose& known,
                             const kinematics::KneeCoordinates& k, bool child_missing) {
-  // The child's anatomical frame in the parent's.
+  // The child's knee frame in the parent's.
   const geometry::Pose relative =
       kinematics::tibiaFromKneeCoordinates(geometry::Pose::Identity(), k, joint.side);
   if (child_missing) {
-    return known * joint.parent_anatomical * relative * joint.child_anatomical.inverse();
+    return known * joint.parentKneeFrame() * relative * joint.childKneeFrame().inverse();
   }
-  return known * joint.child_anatomical * relative.inverse() * joint.parent_anatomical.inverse();
+  return known * joint.childKneeFrame() * relative.inverse() * joint.parentKneeFrame().inverse();
 }
 
 // Knee coordinates moved to the nearest point of the ligament envelope.
@@ -190,6 +190,8 @@ kinematics::KneeCoordinates clampedToEnvelope(const constraints::LigamentSetting
 // contact surfaces), since that is where a loaded knee is.
 std::vector<geometry::Pose> envelopeSamples(const JointModel& joint, double flexion_step_deg,
                                             bool one_anterior) {
+  // A shoulder's bounds are on its Euler angles, not on the knee's coordinates swept here.
+  if (!kinematics::hasKneeFrameCoordinates(joint.type)) return {};
   const auto& bounds = joint.ligaments.bounds;
   const auto middle = [](const constraints::CoordinateBounds& b) {
     return std::isfinite(b.lower) && std::isfinite(b.upper) ? 0.5 * (b.lower + b.upper) : 0.0;
@@ -584,6 +586,7 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
         // Each hypothesis of the other bone moved into the envelope: a rotation about a nearly
         // symmetric implant's axis that its silhouette cannot show is taken from the joint.
         for (const Hypothesis& other : hypotheses[missing]) {
+          if (!kinematics::hasKneeFrameCoordinates(joint.type)) break;
           const geometry::Pose& parent = child_missing ? h.pose : other.pose;
           const geometry::Pose& child = child_missing ? other.pose : h.pose;
           const kinematics::KneeCoordinates k =
@@ -656,8 +659,10 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
       score -= jointPenalty(joint.quality.envelope_violation, joint.quality.penetration_m);
       // Between equally good fits (a mirror pose), the joint nearer neutral (see
       // Registrar's mirror check).
-      score -= settings_.neutral_penalty_per_unit *
-               neutralDeviation(registrar_->joints()[j].ligaments, joint.coordinates);
+      if (kinematics::hasKneeFrameCoordinates(registrar_->joints()[j].type)) {
+        score -= settings_.neutral_penalty_per_unit *
+                 neutralDeviation(registrar_->joints()[j].ligaments, joint.coordinates);
+      }
     }
     if (score > best_score) {
       best_score = score;

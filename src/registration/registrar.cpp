@@ -905,11 +905,16 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
                       {parent_increment, child_increment}, joint_bones);
           }
           if (joint.ligaments.enabled && stage.ligaments) {
-            add_block(
-                makeKneeLigamentCost(joint.ligaments, joint.side,
-                                     parent_pose * joint.parent_anatomical, centres[joint.parent],
-                                     child_pose * joint.child_anatomical, centres[joint.child]),
-                {parent_increment, child_increment}, joint_bones);
+            add_block(joint.type == kinematics::JointType::kGlenohumeral
+                          ? makeGlenohumeralLigamentCost(
+                                joint.ligaments, joint.side, parent_pose * joint.parent_anatomical,
+                                centres[joint.parent], child_pose * joint.child_anatomical,
+                                centres[joint.child])
+                          : makeKneeLigamentCost(
+                                joint.ligaments, joint.side, parent_pose * joint.parentKneeFrame(),
+                                centres[joint.parent], child_pose * joint.childKneeFrame(),
+                                centres[joint.child]),
+                      {parent_increment, child_increment}, joint_bones);
             if (ceres::CostFunction* bundles = makeLigamentBundleCost(
                     joint.ligaments.bundles, parent_pose, centres[joint.parent], child_pose,
                     centres[joint.child])) {

@@ -67,17 +67,31 @@ struct JointCoordinateNames {
 const JointCoordinateNames& coordinateNames(JointType type);
 
 // Whether the type's coordinates are the knee's of the same two frames but for the first
-// angle's sign (the Grood & Suntay kinds with e3 the distal Y axis): the registration's own terms
-// (ligament springs) act on those. Not patellofemoral or glenohumeral.
+// angle's sign (the Grood & Suntay kinds with e3 the distal Y axis). Not patellofemoral or
+// glenohumeral.
 bool hasKneeCoordinates(JointType type);
+
+// Whether the type's coordinates are the knee's of its two anatomical frames each turned by
+// kneeFrameTurn, but for the first angle's sign (firstAngleSign): every type but glenohumeral,
+// whose coordinates are an Euler sequence. The registration's own terms (ligament springs, the
+// pose search's envelope) act on the knee coordinates of the turned frames, so a joint's
+// ligament bounds are its type's own coordinates.
+bool hasKneeFrameCoordinates(JointType type);
+
+// The turn of both anatomical frames (composed on their right) under which the type's
+// coordinates are the knee's (see hasKneeFrameCoordinates): the identity for the types with
+// hasKneeCoordinates, -90 deg about Z for patellofemoral (e3 then the patella's X). Throws
+// InputError for glenohumeral.
+const geometry::Pose& kneeFrameTurn(JointType type);
 
 // The joint's clinical coordinates from the knee-convention ones of the same two frames (in the
 // same fields and order: angle about e1, e2, e3; translation along e2, e3, e1). For the types
 // with hasKneeCoordinates only; throws InputError for the others.
 KneeCoordinates inJointConvention(JointType type, const KneeCoordinates& knee);
 
-// For the types with hasKneeCoordinates: their first angle is this times the knee's flexion
-// (+1 or -1); their other coordinates are the knee's. Throws InputError for the others.
+// For the types with hasKneeFrameCoordinates: their first angle is this times the knee's
+// flexion of the turned frames (+1 or -1); their other coordinates are the knee's. Throws
+// InputError for glenohumeral.
 double firstAngleSign(JointType type);
 
 // Any type's coordinates (the three angles, then the three translations, in the fields of

@@ -11,6 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include "fluoro_tracker/constraints/articular_contact.h"
+#include "fluoro_tracker/constraints/glenohumeral_springs.h"
 #include "fluoro_tracker/constraints/ligament_envelope.h"
 #include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/geometry/xray_camera.h"
@@ -268,11 +269,24 @@ struct JointModel {
   std::shared_ptr<const constraints::ArticularContact> loaded_contact;
   constraints::LigamentSettings ligaments;  // enabled = false: no springs
 
-  // The knee coordinates (kinematics::kneeCoordinates) of bones at these mesh-frame poses.
+  // The frames, in each bone's mesh frame, whose knee coordinates the registration's own terms
+  // (ligament springs, the search's envelope) act on: the anatomical frames turned by
+  // kinematics::kneeFrameTurn, so that those coordinates are the type's own but for the first
+  // angle's sign (the knee's flexion, reversed for e.g. an ankle's dorsiflexion).
+  // A glenohumeral joint's coordinates are an Euler sequence, of no turn of the frames: its
+  // knee frames are its anatomical frames (they serve the pose search's knee-shaped envelope).
+  geometry::Pose parentKneeFrame() const { return parent_anatomical * kneeFrameTurn(); }
+  geometry::Pose childKneeFrame() const { return child_anatomical * kneeFrameTurn(); }
+  const geometry::Pose& kneeFrameTurn() const {
+    static const geometry::Pose identity = geometry::Pose::Identity();
+    return kinematics::hasKneeFrameCoordinates(type) ? kinematics::kneeFrameTurn(type) : identity;
+  }
+  // The knee coordinates (kinematics::kneeCoordinates) of the knee frames of bones at these
+  // mesh-frame poses.
   kinematics::KneeCoordinates coordinates(const geometry::Pose& parent_pose,
                                           const geometry::Pose& child_pose) const {
-    return kinematics::kneeCoordinates(parent_pose * parent_anatomical,
-                                       child_pose * child_anatomical, side);
+    return kinematics::kneeCoordinates(parent_pose * parentKneeFrame(),
+                                       child_pose * childKneeFrame(), side);
   }
   // The coordinates reported to users (CSV, messages), in the joint type's system.
   kinematics::KneeCoordinates reportedCoordinates(const geometry::Pose& parent_pose,
@@ -284,9 +298,12 @@ struct JointModel {
   // outside their bounds (deg or mm, envelopeViolation) and its bundles' stretch (mm).
   double envelopeViolation(const geometry::Pose& parent_pose,
                            const geometry::Pose& child_pose) const {
-    return std::max(
-        registration::envelopeViolation(ligaments, coordinates(parent_pose, child_pose)),
-        constraints::maxStretchMm(ligaments.bundles, parent_pose, child_pose));
+    const double springs =
+        type == kinematics::JointType::kGlenohumeral
+            ? constraints::glenohumeralEnvelopeViolation(ligaments, parent_pose * parent_anatomical,
+                                                         child_pose * child_anatomical, side)
+            : registration::envelopeViolation(ligaments, coordinates(parent_pose, child_pose));
+    return std::max(springs, constraints::maxStretchMm(ligaments.bundles, parent_pose, child_pose));
   }
 };
 

@@ -257,12 +257,44 @@ TEST(TrialConfig, JointTypesAreCheckedAndTakeLigamentsInTheirOwnCoordinates) {
   EXPECT_THROW_WITH(
       io::loadTrialConfig(trial("kneekey.yaml", "type: ankle, ligaments: {flexion_deg: [0, 1]}")),
       "unknown key 'flexion_deg'");
-  EXPECT_THROW_WITH(
-      io::loadTrialConfig(trial("shoulder.yaml", "type: glenohumeral, ligaments: {}")),
-      "not available for glenohumeral");
-  EXPECT_THROW_WITH(
-      io::loadTrialConfig(trial("patella.yaml", "type: patellofemoral, ligaments: {}")),
-      "not available for patellofemoral");
+  // A shoulder's bounds are on its ISB angles (constraints/glenohumeral_springs.h), as given.
+  const io::TrialConfig shoulder = io::loadTrialConfig(
+      trial("shoulder.yaml",
+            "type: glenohumeral, ligaments: {plane_of_elevation_deg: [-30, 120], elevation_deg: "
+            "[-120, 0], axial_rotation_deg: [-40, 40]}"));
+  EXPECT_DOUBLE_EQ(shoulder.joints[0].ligaments.bounds[0].lower, -30.0);
+  EXPECT_DOUBLE_EQ(shoulder.joints[0].ligaments.bounds[1].lower, -120.0);
+  EXPECT_DOUBLE_EQ(shoulder.joints[0].ligaments.bounds[2].upper, 40.0);
+  io::saveTrialConfig(dir.file("saved_shoulder.yaml"), shoulder);
+  const auto& shoulder_again = io::loadTrialConfig(dir.file("saved_shoulder.yaml")).joints[0];
+  EXPECT_TRUE(shoulder_again.ligaments.enabled);
+  EXPECT_DOUBLE_EQ(shoulder_again.ligaments.bounds[0].upper, 120.0);
+  EXPECT_THROW_WITH(io::loadTrialConfig(trial("shoulderkey.yaml",
+                                              "type: glenohumeral, ligaments: {flexion_deg: [0, "
+                                              "1]}")),
+                    "unknown key 'flexion_deg'");
+  // A patellofemoral joint's bounds are its own coordinates (Bull et al.), stored as given: the
+  // springs act on the knee coordinates of its frames turned so that these are they.
+  const io::TrialConfig patella = io::loadTrialConfig(
+      trial("patella.yaml",
+            "type: patellofemoral, ligaments: {flexion_deg: [0, 120], lateral_tilt_deg: [-5, 15], "
+            "z_mm: [-3, 8]}"));
+  const constraints::LigamentSettings& p = patella.joints[0].ligaments;
+  EXPECT_DOUBLE_EQ(p.bounds[0].lower, 0.0);
+  EXPECT_DOUBLE_EQ(p.bounds[0].upper, 120.0);
+  EXPECT_DOUBLE_EQ(p.bounds[1].lower, -5.0);
+  EXPECT_DOUBLE_EQ(p.bounds[1].upper, 15.0);
+  EXPECT_DOUBLE_EQ(p.bounds[5].upper, 8.0);
+  io::saveTrialConfig(dir.file("saved_patella.yaml"), patella);
+  EXPECT_NE(test_support::readText(dir.file("saved_patella.yaml")).find("lateral_tilt_deg"),
+            std::string::npos);
+  EXPECT_DOUBLE_EQ(
+      io::loadTrialConfig(dir.file("saved_patella.yaml")).joints[0].ligaments.bounds[1].upper,
+      15.0);
+  EXPECT_THROW_WITH(io::loadTrialConfig(trial("patellakey.yaml",
+                                              "type: patellofemoral, ligaments: {adduction_deg: "
+                                              "[0, 1]}")),
+                    "unknown key 'adduction_deg'");
   // The forearm's joints take the elbow's names: pronation about the radius' long axis.
   const io::TrialConfig forearm = io::loadTrialConfig(
       trial("forearm.yaml", "type: radioulnar, ligaments: {pronation_deg: [-80, 75]}"));

@@ -149,9 +149,32 @@ TEST(JointTypes, PatellofemoralMovements) {
   EXPECT_NEAR(moved.x_m, 0.03, 1e-12);
   EXPECT_NEAR(moved.y_m, 0.02, 1e-12);
   EXPECT_NEAR(moved.z_m, 0.004, 1e-12);
-  // Its e3 is not the patella's Y: the knee's coordinates of the same frames do not serve.
+  // Its e3 is not the patella's Y: the knee's coordinates of the same frames do not serve,
+  // those of both frames turned by kneeFrameTurn do (the springs act on them).
   EXPECT_FALSE(kinematics::hasKneeCoordinates(JointType::kPatellofemoral));
   EXPECT_THROW_WITH(kinematics::inJointConvention(JointType::kPatellofemoral, {}), "poses");
+  ASSERT_TRUE(kinematics::hasKneeFrameCoordinates(JointType::kPatellofemoral));
+  const Pose& turn = kinematics::kneeFrameTurn(JointType::kPatellofemoral);
+  const Pose femur = geometry::makePose(geometry::rotationX(0.3), Eigen::Vector3d(0.1, 0.0, 0.2));
+  const Pose patella =
+      femur * geometry::makePose(
+                  geometry::rotationZ(-0.5) * geometry::rotationY(-0.1) * geometry::rotationX(0.07),
+                  Eigen::Vector3d(0.02, -0.01, 0.003));
+  for (const Side side : {Side::kRight, Side::kLeft}) {
+    const auto own = kinematics::jointCoordinates(JointType::kPatellofemoral, femur, patella, side);
+    const auto knee = kinematics::kneeCoordinates(femur * turn, patella * turn, side);
+    const double sign = kinematics::firstAngleSign(JointType::kPatellofemoral);
+    EXPECT_NEAR(sign * knee.flexion_rad, own.flexion_rad, 1e-12);
+    EXPECT_NEAR(knee.adduction_rad, own.adduction_rad, 1e-12);
+    EXPECT_NEAR(knee.internal_rotation_rad, own.internal_rotation_rad, 1e-12);
+    EXPECT_NEAR(knee.x_m, own.x_m, 1e-12);
+    EXPECT_NEAR(knee.y_m, own.y_m, 1e-12);
+    EXPECT_NEAR(knee.z_m, own.z_m, 1e-12);
+  }
+  // The Grood & Suntay kinds need no turn; a shoulder's Euler angles have none.
+  EXPECT_TRUE(kinematics::kneeFrameTurn(JointType::kAnkle).isApprox(Pose::Identity()));
+  EXPECT_FALSE(kinematics::hasKneeFrameCoordinates(JointType::kGlenohumeral));
+  EXPECT_THROW_WITH(kinematics::kneeFrameTurn(JointType::kGlenohumeral), "Euler");
 }
 
 // Glenohumeral (ISB Y-X-Y): a humerus frame built from known angles and an offset, anywhere in
