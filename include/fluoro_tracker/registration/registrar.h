@@ -274,7 +274,8 @@ struct JointModel {
   // kinematics::kneeFrameTurn, so that those coordinates are the type's own but for the first
   // angle's sign (the knee's flexion, reversed for e.g. an ankle's dorsiflexion).
   // A glenohumeral joint's coordinates are an Euler sequence, of no turn of the frames: its
-  // knee frames are its anatomical frames (they serve the pose search's knee-shaped envelope).
+  // knee frames are its anatomical frames, and its springs and envelope use its own angles
+  // (reportedCoordinates) instead.
   geometry::Pose parentKneeFrame() const { return parent_anatomical * kneeFrameTurn(); }
   geometry::Pose childKneeFrame() const { return child_anatomical * kneeFrameTurn(); }
   const geometry::Pose& kneeFrameTurn() const {
@@ -311,6 +312,8 @@ struct JointModel {
 struct JointResult {
   int parent = -1;  // bone indices
   int child = -1;
+  // The knee coordinates of the joint's knee frames (JointModel::coordinates); the ones users
+  // see come from JointModel::reportedCoordinates.
   kinematics::KneeCoordinates coordinates;
   JointQuality quality;
   bool has_contact = false;
