@@ -1,0 +1,38 @@
+#pragma once
+
+#include <vector>
+
+#include "fluoro_tracker/constraints/ligament_envelope.h"
+#include "fluoro_tracker/geometry/pose.h"
+#include "fluoro_tracker/kinematics/knee_coordinates.h"
+#include "fluoro_tracker/registration/registrar.h"
+
+namespace fluoro_tracker {
+namespace registration {
+
+// A joint's ligament envelope as poses, for the automatic search (PoseSearch): where one bone
+// of a joint must lie given the other. All in the knee coordinates of the joint's knee frames
+// (JointModel::coordinates), so for every type but glenohumeral, whose bounds are on its own
+// Euler angles.
+
+// The pose of the missing bone of a joint for given knee coordinates and the other bone's pose
+// (mesh frames; `child_missing`: the child is placed from the parent, else the parent from the
+// child).
+geometry::Pose jointPartner(const JointModel& joint, const geometry::Pose& known,
+                            const kinematics::KneeCoordinates& coordinates, bool child_missing);
+
+// Knee coordinates moved to the nearest point of the ligament envelope.
+kinematics::KneeCoordinates clampedToEnvelope(const constraints::LigamentSettings& ligaments,
+                                              kinematics::KneeCoordinates coordinates);
+
+// The child's pose in the parent's mesh frame across the joint's envelope: flexion (the first
+// knee coordinate) in `flexion_step_deg` steps over its bounds, anterior translation in 10 mm
+// steps over its bounds (or at its middle when `one_anterior`), every other coordinate at the
+// middle of its bounds; an unbounded y translation (a knee's distraction) is set where the
+// articular surfaces touch, when the joint has contact surfaces, since that is where a loaded
+// joint is. None for a glenohumeral joint.
+std::vector<geometry::Pose> envelopeSamples(const JointModel& joint, double flexion_step_deg,
+                                            bool one_anterior);
+
+}  // namespace registration
+}  // namespace fluoro_tracker
