@@ -110,12 +110,14 @@ constraints::LigamentSettings readLigamentSettings(const YAML::Node& joint,
                                                    const std::string& context,
                                                    kinematics::JointType type) {
   constraints::LigamentSettings l;
+  // The dissertation's defaults are a knee's; other types' bounds are free unless listed (the
+  // automatic search's envelope reads them with the springs off too).
+  if (type != kinematics::JointType::kKnee) l.bounds = {};
   const YAML::Node node = joint["ligaments"];
   if (!node) {
     l.enabled = false;
     return l;
   }
-  if (type != kinematics::JointType::kKnee) l.bounds = {};
   const YamlSection section(node, context + ".ligaments");
   const auto names = ligamentKeys(type);
   section.allowOnly({"enabled", names[0].c_str(), names[1].c_str(), names[2].c_str(),

@@ -8,15 +8,40 @@
 namespace fluoro_tracker {
 namespace registration {
 
+namespace {
+
+bool isShoulder(const JointModel& joint) {
+  return joint.type == kinematics::JointType::kGlenohumeral;
+}
+
+// The middle of a coordinate's bounds, 0 when a bound is open.
+double middle(const constraints::CoordinateBounds& b) {
+  return std::isfinite(b.lower) && std::isfinite(b.upper) ? 0.5 * (b.lower + b.upper) : 0.0;
+}
+
+}  // namespace
+
+kinematics::KneeCoordinates envelopeCoordinates(const JointModel& joint,
+                                                const geometry::Pose& parent_pose,
+                                                const geometry::Pose& child_pose) {
+  return isShoulder(joint) ? joint.reportedCoordinates(parent_pose, child_pose)
+                           : joint.coordinates(parent_pose, child_pose);
+}
+
 geometry::Pose jointPartner(const JointModel& joint, const geometry::Pose& known,
                             const kinematics::KneeCoordinates& k, bool child_missing) {
-  // The child's knee frame in the parent's.
+  // The child's frame in the parent's: anatomical frames for a shoulder, else knee frames.
   const geometry::Pose relative =
-      kinematics::tibiaFromKneeCoordinates(geometry::Pose::Identity(), k, joint.side);
-  if (child_missing) {
-    return known * joint.parentKneeFrame() * relative * joint.childKneeFrame().inverse();
-  }
-  return known * joint.childKneeFrame() * relative.inverse() * joint.parentKneeFrame().inverse();
+      isShoulder(joint)
+          ? kinematics::distalFromJointCoordinates(joint.type, geometry::Pose::Identity(), k,
+                                                   joint.side)
+          : kinematics::tibiaFromKneeCoordinates(geometry::Pose::Identity(), k, joint.side);
+  const geometry::Pose parent_frame =
+      isShoulder(joint) ? joint.parent_anatomical : joint.parentKneeFrame();
+  const geometry::Pose child_frame =
+      isShoulder(joint) ? joint.child_anatomical : joint.childKneeFrame();
+  if (child_missing) return known * parent_frame * relative * child_frame.inverse();
+  return known * child_frame * relative.inverse() * parent_frame.inverse();
 }
 
 kinematics::KneeCoordinates clampedToEnvelope(const constraints::LigamentSettings& ligaments,
@@ -37,12 +62,24 @@ kinematics::KneeCoordinates clampedToEnvelope(const constraints::LigamentSetting
 
 std::vector<geometry::Pose> envelopeSamples(const JointModel& joint, double flexion_step_deg,
                                             bool one_anterior) {
-  // A shoulder's bounds are on its Euler angles, not on the knee's coordinates swept here.
-  if (!kinematics::hasKneeFrameCoordinates(joint.type)) return {};
   const auto& bounds = joint.ligaments.bounds;
-  const auto middle = [](const constraints::CoordinateBounds& b) {
-    return std::isfinite(b.lower) && std::isfinite(b.upper) ? 0.5 * (b.lower + b.upper) : 0.0;
-  };
+  const geometry::Pose parent = geometry::Pose::Identity();
+  if (isShoulder(joint)) {
+    const double lowest = std::isfinite(bounds[1].lower) ? bounds[1].lower : -150.0;
+    const double highest = std::isfinite(bounds[1].upper) ? bounds[1].upper : 0.0;
+    std::vector<geometry::Pose> samples;
+    for (double elevation = highest; elevation >= lowest - 1e-9; elevation -= flexion_step_deg) {
+      kinematics::KneeCoordinates k;
+      k.flexion_rad = geometry::degToRad(middle(bounds[0]));  // plane of elevation
+      k.adduction_rad = geometry::degToRad(elevation);
+      k.internal_rotation_rad = geometry::degToRad(middle(bounds[2]));  // axial rotation
+      k.x_m = middle(bounds[3]) * 1e-3;
+      k.y_m = middle(bounds[4]) * 1e-3;
+      k.z_m = middle(bounds[5]) * 1e-3;
+      samples.push_back(jointPartner(joint, parent, k, true));
+    }
+    return samples;
+  }
   const double lowest = std::isfinite(bounds[0].lower) ? bounds[0].lower : -10.0;
   const double highest = std::isfinite(bounds[0].upper) ? bounds[0].upper : 150.0;
   const bool free_distraction = !std::isfinite(bounds[4].lower) || !std::isfinite(bounds[4].upper);
@@ -53,7 +90,6 @@ std::vector<geometry::Pose> envelopeSamples(const JointModel& joint, double flex
       anterior_mm.push_back(x);
     }
   }
-  const geometry::Pose parent = geometry::Pose::Identity();
   std::vector<geometry::Pose> samples;
   for (double flexion = lowest; flexion <= highest + 1e-9; flexion += flexion_step_deg) {
     for (double x_mm : anterior_mm) {

@@ -508,11 +508,10 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
         // Each hypothesis of the other bone moved into the envelope: a rotation about a nearly
         // symmetric implant's axis that its silhouette cannot show is taken from the joint.
         for (const Hypothesis& other : hypotheses[missing]) {
-          if (!kinematics::hasKneeFrameCoordinates(joint.type)) break;
           const geometry::Pose& parent = child_missing ? h.pose : other.pose;
           const geometry::Pose& child = child_missing ? other.pose : h.pose;
           const kinematics::KneeCoordinates k =
-              clampedToEnvelope(joint.ligaments, joint.coordinates(parent, child));
+              clampedToEnvelope(joint.ligaments, envelopeCoordinates(joint, parent, child));
           starts.push_back(jointPartner(joint, h.pose, k, child_missing));
         }
       }

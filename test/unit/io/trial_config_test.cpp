@@ -229,8 +229,14 @@ TEST(TrialConfig, JointTypesAreCheckedAndTakeLigamentsInTheirOwnCoordinates) {
                                 joint + "}\n");
     return dir.file(file);
   };
-  EXPECT_EQ(io::loadTrialConfig(trial("ankle.yaml", "type: ankle, side: left")).joints[0].type,
-            "ankle");
+  const io::TrialConfig plain_ankle =
+      io::loadTrialConfig(trial("ankle.yaml", "type: ankle, side: left"));
+  EXPECT_EQ(plain_ankle.joints[0].type, "ankle");
+  // No springs, and no knee's bounds either (the search's envelope reads them).
+  EXPECT_FALSE(plain_ankle.joints[0].ligaments.enabled);
+  for (const auto& b : plain_ankle.joints[0].ligaments.bounds) {
+    EXPECT_TRUE(std::isinf(b.lower) && std::isinf(b.upper));
+  }
   EXPECT_THROW_WITH(io::loadTrialConfig(trial("hip.yaml", "type: hip")), "joint type 'hip'");
   // An ankle's bounds are named and signed as its own coordinates (dorsiflexion is the knee's
   // flexion reversed); the springs act on the knee's, so they are stored so. Unlisted bounds

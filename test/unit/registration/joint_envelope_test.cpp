@@ -55,8 +55,54 @@ TEST(JointEnvelope, SeatsTheChildOnTheParentAlongItsOwnAxis) {
           << kinematics::jointTypeName(type) << " sample " << i;
     }
   }
-  EXPECT_TRUE(
-      registration::envelopeSamples(
-          sphereJoint(kinematics::JointType::kGlenohumeral, Eigen::Vector3d::UnitX()), 20.0, true)
-          .empty());
+}
+
+// A shoulder's envelope is in its own ISB angles: the elevation swept over its bounds, the plane
+// of elevation and axial rotation at the middle of theirs, with the bones' anatomical frames
+// anywhere in their meshes; partners found either way round and clamped coordinates agree.
+TEST(JointEnvelope, ShoulderSweepsItsElevationInItsOwnAngles) {
+  registration::JointModel shoulder;
+  shoulder.parent = 0;
+  shoulder.child = 1;
+  shoulder.type = kinematics::JointType::kGlenohumeral;
+  shoulder.side = kinematics::Side::kLeft;
+  shoulder.parent_anatomical =
+      geometry::makePose(geometry::rotationX(0.3), Eigen::Vector3d(0.01, 0.02, -0.03));
+  shoulder.child_anatomical =
+      geometry::makePose(geometry::rotationZ(-0.4), Eigen::Vector3d(0.0, -0.15, 0.005));
+  shoulder.ligaments.bounds = {};
+  shoulder.ligaments.bounds[0] = {20.0, 60.0};    // plane of elevation
+  shoulder.ligaments.bounds[1] = {-90.0, -30.0};  // elevation
+  shoulder.ligaments.bounds[2] = {-10.0, 30.0};   // axial rotation
+  const std::vector<Pose> samples = registration::envelopeSamples(shoulder, 30.0, true);
+  ASSERT_EQ(samples.size(), 3u);
+  const double expected_elevation[3] = {-30.0, -60.0, -90.0};
+  const Pose scapula = Pose::Identity();
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const auto c = shoulder.reportedCoordinates(scapula, samples[i]);
+    EXPECT_NEAR(geometry::radToDeg(c.flexion_rad), 40.0, 1e-9) << i;
+    EXPECT_NEAR(geometry::radToDeg(c.adduction_rad), expected_elevation[i], 1e-9) << i;
+    EXPECT_NEAR(geometry::radToDeg(c.internal_rotation_rad), 10.0, 1e-9) << i;
+    EXPECT_NEAR(c.x_m, 0.0, 1e-12);
+    EXPECT_LT(shoulder.envelopeViolation(scapula, samples[i]), 1e-9) << i;  // at the bounds
+    // The scapula placed from the humerus by the same coordinates is where it was.
+    const Pose back = registration::jointPartner(
+        shoulder, samples[i], registration::envelopeCoordinates(shoulder, scapula, samples[i]),
+        false);
+    EXPECT_LT((back.translation() - scapula.translation()).norm(), 1e-12) << i;
+    EXPECT_LT(geometry::rotationAngleBetween(back.linear(), scapula.linear()), 1e-12) << i;
+  }
+  // A humerus raised 120 deg in the plane at 80 deg is moved to the envelope's edge: 90 deg of
+  // elevation in the 60 deg plane.
+  kinematics::KneeCoordinates raised;
+  raised.flexion_rad = geometry::degToRad(80.0);
+  raised.adduction_rad = geometry::degToRad(-120.0);
+  const Pose humerus = registration::jointPartner(shoulder, scapula, raised, true);
+  const auto clamped = registration::clampedToEnvelope(
+      shoulder.ligaments, registration::envelopeCoordinates(shoulder, scapula, humerus));
+  EXPECT_NEAR(geometry::radToDeg(clamped.flexion_rad), 60.0, 1e-9);
+  EXPECT_NEAR(geometry::radToDeg(clamped.adduction_rad), -90.0, 1e-9);
+  EXPECT_LT(shoulder.envelopeViolation(
+                scapula, registration::jointPartner(shoulder, scapula, clamped, true)),
+            1e-9);
 }
