@@ -93,16 +93,12 @@ void QualitySettings::validate() const {
 
 double envelopeViolation(const constraints::LigamentSettings& ligaments,
                          const kinematics::KneeCoordinates& k) {
-  constraints::LigamentSettings unit = ligaments;
-  unit.stiffness_per_deg = 1.0;
-  unit.stiffness_per_mm = 1.0;
   const double coordinates[6] = {k.flexion_rad, k.adduction_rad, k.internal_rotation_rad,
                                  k.x_m,         k.y_m,           k.z_m};
-  double residuals[6];
-  constraints::ligamentResiduals(unit, coordinates, residuals);
-  double worst = 0.0;
-  for (double r : residuals) worst = std::max(worst, std::abs(r));
-  return worst;
+  return constraints::largestExcess(
+      ligaments, [&](const constraints::LigamentSettings& unit, double residuals[6]) {
+        constraints::ligamentResiduals(unit, coordinates, residuals);
+      });
 }
 
 std::string combinedStatus(const std::string& parent, const std::string& child) {

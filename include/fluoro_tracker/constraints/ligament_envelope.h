@@ -1,6 +1,8 @@
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 #include <string>
 #include <vector>
@@ -54,6 +56,21 @@ void ligamentResiduals(const LigamentSettings& s, const T coordinates[6], T resi
       residuals[k] = T(0.0);
     }
   }
+}
+
+// The largest distance of a coordinate outside its bounds (degrees or millimetres; 0 inside):
+// the largest |residual| that `springs(unit, residuals)` writes with `unit` the settings at
+// stiffness 1, whichever coordinates the springs act on.
+template <typename Springs>
+double largestExcess(const LigamentSettings& settings, Springs springs) {
+  LigamentSettings unit = settings;
+  unit.stiffness_per_deg = 1.0;
+  unit.stiffness_per_mm = 1.0;
+  double residuals[6];
+  springs(unit, residuals);
+  double worst = 0.0;
+  for (double r : residuals) worst = std::max(worst, std::abs(r));
+  return worst;
 }
 
 }  // namespace constraints
