@@ -217,6 +217,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "solver_iterations",
                      "contour_spacing_px",
                      "robust_scale_px",
+                     "robust_scale_final_px",
                      "roi_margin_px",
                      "reverse_term_weight",
                      "reverse_band_px",
@@ -265,6 +266,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("solver_iterations", &r.solver_iterations);
   section.read("contour_spacing_px", &r.contour_spacing_px);
   section.read("robust_scale_px", &r.robust_scale_px);
+  section.read("robust_scale_final_px", &r.robust_scale_final_px);
   section.read("roi_margin_px", &r.roi_margin_px);
   section.read("reverse_term_weight", &r.reverse_term_weight);
   section.read("reverse_band_px", &r.reverse_band_px);

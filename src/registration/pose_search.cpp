@@ -237,6 +237,9 @@ PoseSearch::PoseSearch(std::shared_ptr<const Registrar> registrar, PoseSearchSet
   // Starts are several pixels off at the coarsest scale: a wider robust kernel keeps their
   // edges in the basin (the final joint registration uses the trial's own settings).
   refine.robust_scale_px = std::max(refine.robust_scale_px, settings_.refine_robust_scale_px);
+  // ... to the end: a hypothesis's outline may still be pixels off where the finest scale
+  // begins (the narrower final kernel is the final joint registration's).
+  refine.robust_scale_final_px = 0.0;
   // Shape matching is good to tens of millimetres along the beam and a view step in angle.
   refine.max_translation_from_start_m = std::max(refine.max_translation_from_start_m, 0.1);
   refine.max_rotation_from_start_rad = std::max(refine.max_rotation_from_start_rad, 0.8);

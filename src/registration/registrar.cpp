@@ -475,6 +475,9 @@ void RegistrationSettings::validate() const {
   if (outer_iterations < 1 || solver_iterations < 1) {
     throw InputError("registration: outer_iterations and solver_iterations must be >= 1");
   }
+  if (!std::isfinite(robust_scale_final_px)) {
+    throw InputError("registration: robust_scale_final_px must be a number (<= 0: off)");
+  }
   if (!(contour_spacing_px > 0.0) || !(robust_scale_px > 0.0)) {
     throw InputError("registration: contour_spacing_px and robust_scale_px must be > 0");
   }
@@ -754,7 +757,6 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
         maps.emplace_back(views[v].image, views[v].camera, settings_.edges, rois[v], scale);
       }
     }
-    const double robust_scale = settings_.robust_scale_px * scale;
     // Offsets are in pixels of the map's scale.
     for (auto& per_view : offsets) {
       for (double& o : per_view) o *= scale / previous_scale;
@@ -778,6 +780,10 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
       };
       for (int outer = 0; outer < outer_iterations; ++outer) {
         ++result.outer_iterations;
+        const double robust_scale =
+            scale * (finest && outer >= 1 && settings_.robust_scale_final_px > 0.0
+                         ? settings_.robust_scale_final_px
+                         : settings_.robust_scale_px);
         std::vector<std::array<double, 6>> increments(bones_.size(), std::array<double, 6>{});
         std::vector<Eigen::Vector3d> centres(bones_.size());
         ceres::Problem::Options problem_options;

@@ -728,6 +728,9 @@ int main(int argc, char** argv) {
       "Levenberg-Marquardt iterations per outer iteration")(
       "robust-px", po::value(&settings.robust_scale_px)->default_value(settings.robust_scale_px),
       "Cauchy scale of the contour distance, full-resolution pixels")(
+      "robust-final-px",
+      po::value(&settings.robust_scale_final_px)->default_value(settings.robust_scale_final_px),
+      "... from the finest scale's second outer iteration on (<= 0: --robust-px throughout)")(
       "mirror-check",
       po::value(&settings.mirror_check.enabled)->default_value(settings.mirror_check.enabled),
       "single view: also solve from the tibial tray's mirror pose and keep it if it fits as well "

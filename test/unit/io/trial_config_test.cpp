@@ -348,6 +348,7 @@ registration:
   tracking_scales: [0.5, 1.0]
   tracking_retry: false
   robust_scale_px: 3.0
+  robust_scale_final_px: 1.5
   parameterisation: parent_relative
   edge_offset_hold: false
   edge_offset_min_px: 0.0
@@ -393,6 +394,7 @@ registration:
   EXPECT_EQ(c.registration.tracking_scales, (std::vector<double>{0.5, 1.0}));
   EXPECT_FALSE(c.registration.tracking_retry);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, 3.0);
+  EXPECT_DOUBLE_EQ(c.registration.robust_scale_final_px, 1.5);
   EXPECT_FALSE(c.registration.edge_offset_hold);
   EXPECT_FALSE(c.registration.edge_offset_tracking.enabled);
   EXPECT_DOUBLE_EQ(c.registration.edge_offset_tracking.frame_sd_px, 0.3);
@@ -426,6 +428,7 @@ registration:
   expectRegistrationRejected("{parameterisation: relative}",
                              "parameterisation 'relative' is not one of absolute, parent_relative");
   expectRegistrationRejected("{tracking_scales: []}", "tracking_scales must not be empty");
+  expectRegistrationRejected("{robust_scale_final_px: .nan}", "robust_scale_final_px must be");
   expectRegistrationRejected("{edge_offset_min_px: .nan}", "edge_offset_min_px must be a number");
   expectRegistrationRejected("{mirror_check: {cost_tolerance: -0.1}}", "mirror_check needs");
   expectRegistrationRejected("{mirror_check: {min_neutral_gain: -0.1}}", "min_neutral_gain >= 0");
@@ -456,6 +459,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.registration.outer_iterations, d.outer_iterations);
   EXPECT_EQ(c.registration.solver_iterations, d.solver_iterations);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, d.robust_scale_px);
+  EXPECT_DOUBLE_EQ(c.registration.robust_scale_final_px, d.robust_scale_final_px);
   EXPECT_DOUBLE_EQ(c.registration.roi_margin_px, d.roi_margin_px);
   EXPECT_DOUBLE_EQ(c.registration.reverse_term_weight, d.reverse_term_weight);
   EXPECT_DOUBLE_EQ(c.registration.reverse_band_px, d.reverse_band_px);

@@ -937,3 +937,40 @@ TEST(Registrar, EdgeOffsetFloorKeepsAnObliqueTrayFromSlidingAlongTheBeam) {
   EXPECT_TRUE(registration::meetsSuccessCriterion(error));
   EXPECT_GT(floored.edge_offsets_px[1][0], unbounded.edge_offsets_px[1][0] + 0.2);
 }
+
+// A stretch of the femoral component's outline that runs inside a metal rod has no edge of its
+// own; the rod's borders lie 4-6 px away, where a 4 px Cauchy kernel pulls hardest. Trading the
+// bone's edge offset against its depth, those samples carry the bone ~8 mm along the beam from
+// its true pose, its edge offset at -1.9 px (outward; +0.3-0.5 px, inward, at the truth). The
+// narrower kernel once the contour lies on its edges (robust_scale_final_px) weakens their
+// pull: on this one frame the slide shrinks (to ~7 mm, offset -1.4 px); tracked, later frames
+// then come back (README "Registration").
+TEST(Registrar, ANarrowerFinalKernelWeakensThePullOfSamplesWithoutEdges) {
+  sim::TrialSimulatorSettings s = sim::loadSimulatorSettings(
+      std::string(FLUORO_SOURCE_DIR) + "/config/robustness/occluding_rod.yaml");
+  s.motion.frames = 1;
+  const sim::TrialSimulator simulator(s);
+  const std::vector<registration::BoneModel> bones = {
+      {"femur", std::make_shared<imaging::SilhouetteModel>(simulator.implants().femoral_component),
+       1.0},
+      {"tibia", std::make_shared<imaging::SilhouetteModel>(simulator.implants().tibial_tray), 1.0}};
+  const geometry::XrayCamera& camera = simulator.views()[0].camera;
+  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  std::mt19937_64 rng(5);
+  const auto frame = simulator.render(0, &rng);
+  const std::vector<registration::ViewImage> views = {{frame.images[0], camera}};
+  const std::vector<Pose> truth = {frame.femur, frame.tibia};
+  registration::RegistrationSettings settings;
+  settings.robust_scale_final_px = 0.0;  // 4 px throughout
+  const auto wide = registration::Registrar(bones, settings).solve(views, truth);
+  const auto wide_error = registration::poseError(wide.poses[0], frame.femur, camera_from_fixed);
+  ASSERT_GT(wide_error.translation_mm.z(), 5.0)
+      << "the femoral component must slide with the wide kernel for the test to mean anything";
+  settings.robust_scale_final_px = 2.0;
+  const auto narrow = registration::Registrar(bones, settings).solve(views, truth);
+  const auto error = registration::poseError(narrow.poses[0], frame.femur, camera_from_fixed);
+  EXPECT_LT(error.translation_mm.z(), wide_error.translation_mm.z() - 1.0);
+  EXPECT_GT(narrow.edge_offsets_px[0][0], wide.edge_offsets_px[0][0] + 0.3);
+  EXPECT_GT(narrow.quality[0].contour_inlier_fraction,
+            wide.quality[0].contour_inlier_fraction + 0.1);
+}
