@@ -25,15 +25,9 @@ struct Scene {
   sim::SimulatedFrame frame;
   std::vector<registration::BoneModel> bones;
 
-  Scene() : simulator(settings()) {
+  Scene() : simulator(settings()), bones(test_support::simulatedKneeBones(simulator)) {
     std::mt19937_64 rng(3);
     frame = simulator.render(5, &rng);
-    bones.push_back(
-        {"femur",
-         std::make_shared<imaging::SilhouetteModel>(simulator.implants().femoral_component), 1.0});
-    bones.push_back({"tibia",
-                     std::make_shared<imaging::SilhouetteModel>(simulator.implants().tibial_tray),
-                     1.0});
   }
   static sim::TrialSimulatorSettings settings() {
     sim::TrialSimulatorSettings s;
@@ -500,10 +494,7 @@ TEST(Registrar, MirrorCheckReversesTheTiltAloneOfATurnedTray) {
   const sim::TrialSimulator simulator(s);
   std::mt19937_64 rng(3);
   const sim::SimulatedFrame frame = simulator.render(5, &rng);
-  const std::vector<registration::BoneModel> bones = {
-      {"femur", std::make_shared<imaging::SilhouetteModel>(simulator.implants().femoral_component),
-       1.0},
-      {"tibia", std::make_shared<imaging::SilhouetteModel>(simulator.implants().tibial_tray), 1.0}};
+  const std::vector<registration::BoneModel> bones = test_support::simulatedKneeBones(simulator);
   const std::vector<Pose> truth = {frame.femur, frame.tibia};
   const geometry::XrayCamera& camera = simulator.views()[0].camera;
   const Pose camera_from_fixed = camera.worldFromCamera().inverse();
@@ -905,10 +896,7 @@ TEST(Registrar, EdgeOffsetFloorKeepsAnObliqueTrayFromSlidingAlongTheBeam) {
   s.view_yaw_deg = 8.0;
   s.view_roll_deg = -5.0;
   const sim::TrialSimulator simulator(s);
-  const std::vector<registration::BoneModel> bones = {
-      {"femur", std::make_shared<imaging::SilhouetteModel>(simulator.implants().femoral_component),
-       1.0},
-      {"tibia", std::make_shared<imaging::SilhouetteModel>(simulator.implants().tibial_tray), 1.0}};
+  const std::vector<registration::BoneModel> bones = test_support::simulatedKneeBones(simulator);
   const geometry::XrayCamera& camera = simulator.views()[0].camera;
   const Pose camera_from_fixed = camera.worldFromCamera().inverse();
   std::mt19937_64 rng(5);
@@ -950,10 +938,7 @@ TEST(Registrar, ANarrowerFinalKernelWeakensThePullOfSamplesWithoutEdges) {
       std::string(FLUORO_SOURCE_DIR) + "/config/robustness/occluding_rod.yaml");
   s.motion.frames = 1;
   const sim::TrialSimulator simulator(s);
-  const std::vector<registration::BoneModel> bones = {
-      {"femur", std::make_shared<imaging::SilhouetteModel>(simulator.implants().femoral_component),
-       1.0},
-      {"tibia", std::make_shared<imaging::SilhouetteModel>(simulator.implants().tibial_tray), 1.0}};
+  const std::vector<registration::BoneModel> bones = test_support::simulatedKneeBones(simulator);
   const geometry::XrayCamera& camera = simulator.views()[0].camera;
   const Pose camera_from_fixed = camera.worldFromCamera().inverse();
   std::mt19937_64 rng(5);

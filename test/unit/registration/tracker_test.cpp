@@ -25,13 +25,8 @@ struct Trial {
   std::shared_ptr<const registration::Registrar> registrar;
 
   Trial() {
-    std::vector<registration::BoneModel> bones = {
-        {"femur",
-         std::make_shared<imaging::SilhouetteModel>(simulator.implants().femoral_component), 1.0},
-        {"tibia", std::make_shared<imaging::SilhouetteModel>(simulator.implants().tibial_tray),
-         1.0}};
-    registrar =
-        std::make_shared<registration::Registrar>(bones, registration::RegistrationSettings());
+    registrar = std::make_shared<registration::Registrar>(
+        test_support::simulatedKneeBones(simulator), registration::RegistrationSettings());
   }
   static sim::TrialSimulatorSettings settings() {
     sim::TrialSimulatorSettings s;
@@ -243,13 +238,8 @@ TEST(Tracker, ChecksTheMirrorFromPosesTheUserGaveAndNearMirrorsWhileTracking) {
     registration::RegistrationSettings settings;
     settings.mirror_check.tracking_turn_max_difference_deg = tracking_turn_max_difference_deg;
     return std::make_shared<const registration::Registrar>(
-        std::vector<registration::BoneModel>{
-            {"femur",
-             std::make_shared<imaging::SilhouetteModel>(simulator.implants().femoral_component),
-             1.0},
-            {"tibia", std::make_shared<imaging::SilhouetteModel>(simulator.implants().tibial_tray),
-             1.0}},
-        settings, std::vector<registration::JointModel>{knee});
+        test_support::simulatedKneeBones(simulator), settings,
+        std::vector<registration::JointModel>{knee});
   };
   std::mt19937_64 rng(3);
   const auto frame = simulator.render(5, &rng);
