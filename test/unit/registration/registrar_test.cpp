@@ -1,6 +1,7 @@
 #include "fluoro_tracker/registration/registrar.h"
 #include "fluoro_tracker/kinematics/joint_types.h"
 
+#include <cstdint>
 #include <limits>
 
 #include <opencv2/imgproc.hpp>
@@ -53,6 +54,23 @@ registration::JointModel kneeJoint() {
   knee.child = 1;
   return knee;
 }
+
+// One frame of a simulated single-view trial, with the trial's implants as bones.
+struct SingleViewFrame {
+  sim::TrialSimulator simulator;
+  std::vector<registration::BoneModel> bones;
+  sim::SimulatedFrame frame;
+  std::vector<registration::ViewImage> views;
+
+  SingleViewFrame(const sim::TrialSimulatorSettings& settings, int index, std::uint64_t seed)
+      : simulator(settings), bones(test_support::simulatedKneeBones(simulator)) {
+    std::mt19937_64 rng(seed);
+    frame = simulator.render(index, &rng);
+    views = {{frame.images[0], camera()}};
+  }
+  const geometry::XrayCamera& camera() const { return simulator.views()[0].camera; }
+  Pose cameraFromFixed() const { return camera().worldFromCamera().inverse(); }
+};
 
 }  // namespace
 
@@ -895,13 +913,12 @@ TEST(Registrar, EdgeOffsetFloorKeepsAnObliqueTrayFromSlidingAlongTheBeam) {
   s.motion.start_flexion_deg = s.motion.max_flexion_deg = 85.0;
   s.view_yaw_deg = 8.0;
   s.view_roll_deg = -5.0;
-  const sim::TrialSimulator simulator(s);
-  const std::vector<registration::BoneModel> bones = test_support::simulatedKneeBones(simulator);
-  const geometry::XrayCamera& camera = simulator.views()[0].camera;
-  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
-  std::mt19937_64 rng(5);
-  const auto frame = simulator.render(0, &rng);
-  const std::vector<registration::ViewImage> views = {{frame.images[0], camera}};
+  const SingleViewFrame scene(s, 0, 5);
+  const auto& bones = scene.bones;
+  const auto& frame = scene.frame;
+  const auto& views = scene.views;
+  const geometry::XrayCamera& camera = scene.camera();
+  const Pose camera_from_fixed = scene.cameraFromFixed();
   std::vector<Pose> start = {frame.femur, frame.tibia};
   for (Pose& pose : start) {
     Pose in_camera = camera_from_fixed * pose;
@@ -937,13 +954,11 @@ TEST(Registrar, ANarrowerFinalKernelWeakensThePullOfSamplesWithoutEdges) {
   sim::TrialSimulatorSettings s = sim::loadSimulatorSettings(
       std::string(FLUORO_SOURCE_DIR) + "/config/robustness/occluding_rod.yaml");
   s.motion.frames = 1;
-  const sim::TrialSimulator simulator(s);
-  const std::vector<registration::BoneModel> bones = test_support::simulatedKneeBones(simulator);
-  const geometry::XrayCamera& camera = simulator.views()[0].camera;
-  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
-  std::mt19937_64 rng(5);
-  const auto frame = simulator.render(0, &rng);
-  const std::vector<registration::ViewImage> views = {{frame.images[0], camera}};
+  const SingleViewFrame scene(s, 0, 5);
+  const auto& bones = scene.bones;
+  const auto& frame = scene.frame;
+  const auto& views = scene.views;
+  const Pose camera_from_fixed = scene.cameraFromFixed();
   const std::vector<Pose> truth = {frame.femur, frame.tibia};
   registration::RegistrationSettings settings;
   settings.robust_scale_final_px = 0.0;  // 4 px throughout
