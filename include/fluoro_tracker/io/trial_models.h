@@ -18,7 +18,7 @@ struct TrialModels {
 };
 
 // Loads every mesh the config names. Throws InputError naming the bone or joint and the file,
-// or a joint type other than knee (the only joint coordinate system built so far).
+// or a joint type that kinematics::jointTypeFromName does not know.
 TrialModels loadTrialModels(const TrialConfig& config);
 
 }  // namespace io
