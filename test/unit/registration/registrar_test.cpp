@@ -21,15 +21,26 @@ using geometry::Pose;
 
 namespace {
 
-struct Scene {
+// One frame of a simulated single-view trial, with the trial's implants as bones.
+struct SingleViewFrame {
   sim::TrialSimulator simulator;
-  sim::SimulatedFrame frame;
   std::vector<registration::BoneModel> bones;
+  sim::SimulatedFrame frame;
+  std::vector<registration::ViewImage> views;
 
-  Scene() : simulator(settings()), bones(test_support::simulatedKneeBones(simulator)) {
-    std::mt19937_64 rng(3);
-    frame = simulator.render(5, &rng);
+  SingleViewFrame(const sim::TrialSimulatorSettings& settings, int index, std::uint64_t seed)
+      : simulator(settings), bones(test_support::simulatedKneeBones(simulator)) {
+    std::mt19937_64 rng(seed);
+    frame = simulator.render(index, &rng);
+    views = {{frame.images[0], camera()}};
   }
+  const geometry::XrayCamera& camera() const { return simulator.views()[0].camera; }
+  Pose cameraFromFixed() const { return camera().worldFromCamera().inverse(); }
+};
+
+// Frame 5 of a 12-frame trial with the simulator's defaults.
+struct Scene : SingleViewFrame {
+  Scene() : SingleViewFrame(settings(), 5, 3) {}
   static sim::TrialSimulatorSettings settings() {
     sim::TrialSimulatorSettings s;
     s.motion.frames = 12;
@@ -55,23 +66,6 @@ registration::JointModel kneeJoint() {
   return knee;
 }
 
-// One frame of a simulated single-view trial, with the trial's implants as bones.
-struct SingleViewFrame {
-  sim::TrialSimulator simulator;
-  std::vector<registration::BoneModel> bones;
-  sim::SimulatedFrame frame;
-  std::vector<registration::ViewImage> views;
-
-  SingleViewFrame(const sim::TrialSimulatorSettings& settings, int index, std::uint64_t seed)
-      : simulator(settings), bones(test_support::simulatedKneeBones(simulator)) {
-    std::mt19937_64 rng(seed);
-    frame = simulator.render(index, &rng);
-    views = {{frame.images[0], camera()}};
-  }
-  const geometry::XrayCamera& camera() const { return simulator.views()[0].camera; }
-  Pose cameraFromFixed() const { return camera().worldFromCamera().inverse(); }
-};
-
 }  // namespace
 
 TEST(Registrar, RecoversKnownPosesOnASimulatedFrame) {
@@ -81,8 +75,7 @@ TEST(Registrar, RecoversKnownPosesOnASimulatedFrame) {
   const std::vector<Pose> start = {
       offset(truth[0], {0.0015, -0.001, 0.002}, {0.03, -0.04, 0.03}),
       offset(truth[1], {-0.001, 0.0015, -0.002}, {-0.04, 0.03, -0.03})};
-  const auto result =
-      registrar.solve({{scene.frame.images[0], scene.simulator.views()[0].camera}}, start);
+  const auto result = registrar.solve(scene.views, start);
   ASSERT_EQ(result.poses.size(), 2u);
   EXPECT_GT(result.cost_evaluations, 0);
   for (int b = 0; b < 2; ++b) {
@@ -119,14 +112,13 @@ TEST(Registrar, ContactRelievesPenetrationAndIsReported) {
   const std::vector<Pose> start = {offset(truth[0], {0.0005, 0.0, 0.0}, {0.01, 0.0, -0.01}),
                                    offset(truth[1], 0.002 * up, {0.0, 0.02, 0.01})};
   ASSERT_GT(contact->figures(start[0], start[1]).max_depth_m, 0.0015);
-  const registration::RegistrationResult result =
-      with_contact.solve({{scene.frame.images[0], scene.simulator.views()[0].camera}}, start);
+  const registration::RegistrationResult result = with_contact.solve(scene.views, start);
   ASSERT_EQ(result.joints.size(), 1u);
   ASSERT_TRUE(result.joints[0].has_contact);
   EXPECT_LT(result.joints[0].contact.max_depth_m, 1e-4);
   EXPECT_NEAR(result.joints[0].contact.max_depth_m,
               contact->figures(result.poses[0], result.poses[1]).max_depth_m, 1e-12);
-  const Pose camera_from_fixed = scene.simulator.views()[0].camera.worldFromCamera().inverse();
+  const Pose camera_from_fixed = scene.cameraFromFixed();
   for (int b = 0; b < 2; ++b) {
     EXPECT_TRUE(registration::meetsSuccessCriterion(
         registration::poseError(result.poses[b], truth[b], camera_from_fixed)))
@@ -144,8 +136,7 @@ TEST(Registrar, EdgeOffsetIsHeldUntilTheSecondOuterIteration) {
   const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
   const std::vector<Pose> start = {offset(truth[0], {0.001, -0.001, 0.002}, {0.02, -0.02, 0.02}),
                                    offset(truth[1], {-0.001, 0.001, -0.002}, {-0.02, 0.02, 0.0})};
-  const std::vector<registration::ViewImage> views = {
-      {scene.frame.images[0], scene.simulator.views()[0].camera}};
+  const auto& views = scene.views;
   registration::RegistrationSettings settings;
   settings.outer_iterations = 1;
   settings.mirror_check.enabled = false;
@@ -167,8 +158,7 @@ TEST(Registrar, EdgeOffsetIsHeldUntilTheSecondOuterIteration) {
 TEST(Registrar, EdgeOffsetPriorsAreHonoured) {
   const Scene scene;
   const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
-  const std::vector<registration::ViewImage> views = {
-      {scene.frame.images[0], scene.simulator.views()[0].camera}};
+  const auto& views = scene.views;
   registration::RegistrationSettings settings;
   settings.mirror_check.enabled = false;
   const registration::Registrar registrar(scene.bones, settings);
@@ -203,8 +193,7 @@ TEST(Registrar, LigamentsLeaveResultsInsideTheEnvelopeUnchanged) {
   ASSERT_LT(std::abs(geometry::radToDeg(coordinates.adduction_rad)), 2.0);
   const std::vector<Pose> start = {offset(truth[0], {0.001, -0.001, 0.002}, {0.02, -0.03, 0.02}),
                                    offset(truth[1], {-0.001, 0.001, -0.002}, {-0.03, 0.02, -0.02})};
-  const std::vector<registration::ViewImage> views = {
-      {scene.frame.images[0], scene.simulator.views()[0].camera}};
+  const auto& views = scene.views;
   const auto image_only = without.solve(views, start);
   const auto inside = knee.coordinates(image_only.poses[0], image_only.poses[1]);
   ASSERT_EQ(registration::envelopeViolation(knee.ligaments, inside), 0.0)
@@ -240,8 +229,7 @@ TEST(Registrar, LigamentsPullAJointTowardItsEnvelope) {
   const std::vector<Pose> start = {
       truth[0], offset(truth[1], Eigen::Vector3d::Zero(), {geometry::degToRad(12.0), 0.0, 0.0})};
   ASSERT_GT(std::abs(knee.coordinates(start[0], start[1]).adduction_rad), geometry::degToRad(10.0));
-  const std::vector<registration::ViewImage> views = {
-      {scene.frame.images[0], scene.simulator.views()[0].camera}};
+  const auto& views = scene.views;
   const double with_springs = std::abs(
       geometry::radToDeg(registrar.solve(views, start).joints[0].coordinates.adduction_rad));
   const double without = std::abs(
@@ -260,8 +248,7 @@ TEST(Registrar, EveryJointTypesSpringsActOnItsOwnCoordinates) {
   const Scene scene;
   registration::RegistrationSettings settings;
   settings.mirror_check.enabled = false;  // a knee's rule; these are not knees
-  const std::vector<registration::ViewImage> views = {
-      {scene.frame.images[0], scene.simulator.views()[0].camera}};
+  const auto& views = scene.views;
   const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
   // Patellofemoral lateral tilt (about the floating axis), glenohumeral axial rotation.
   for (const auto& [type, angle] : {std::pair{kinematics::JointType::kPatellofemoral, 1},
@@ -308,8 +295,7 @@ TEST(Registrar, LigamentBundlesActOnlyWhenStretched) {
   registration::RegistrationSettings settings;
   settings.mirror_check.enabled = false;  // the bundle alone is under test
   registration::JointModel knee = kneeJoint();
-  const std::vector<registration::ViewImage> views = {
-      {scene.frame.images[0], scene.simulator.views()[0].camera}};
+  const auto& views = scene.views;
   const registration::Registrar without(scene.bones, settings, {knee});
   const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
   const auto reference = without.solve(views, truth);
@@ -353,8 +339,7 @@ TEST(Registrar, StageImageWeightsApplyPerBone) {
   const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
   const std::vector<Pose> start = {offset(truth[0], {0.001, -0.001, 0.0}, {0.02, 0.0, 0.0}),
                                    offset(truth[1], {-0.001, 0.001, 0.0}, {0.0, 0.02, 0.0})};
-  const auto result =
-      registrar.solve({{scene.frame.images[0], scene.simulator.views()[0].camera}}, start);
+  const auto result = registrar.solve(scene.views, start);
   EXPECT_LT((result.poses[1].translation() - start[1].translation()).norm(), 1e-9);
   const Eigen::Vector3d femur_error = result.poses[0].translation() - truth[0].translation();
   EXPECT_LT(std::hypot(femur_error.x(), femur_error.y()), 0.0005);
@@ -368,9 +353,8 @@ TEST(Registrar, CovarianceIsLargestAlongTheBeam) {
   settings.compute_covariance = true;
   const registration::Registrar registrar(scene.bones, settings);
   const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
-  const auto result =
-      registrar.solve({{scene.frame.images[0], scene.simulator.views()[0].camera}},
-                      {offset(truth[0], {0.0005, 0.0, 0.001}, Eigen::Vector3d::Zero()), truth[1]});
+  const auto result = registrar.solve(
+      scene.views, {offset(truth[0], {0.0005, 0.0, 0.001}, Eigen::Vector3d::Zero()), truth[1]});
   ASSERT_EQ(result.covariances.size(), 2u);
   for (int b = 0; b < 2; ++b) {
     ASSERT_TRUE(result.covariance_valid[b]) << b;
@@ -388,14 +372,13 @@ TEST(Registrar, CovarianceIsLargestAlongTheBeam) {
     EXPECT_GT(correlation, 1.5) << scene.bones[b].name;
     EXPECT_LT(correlation, 201.0) << scene.bones[b].name;
     const Eigen::Vector3d error_in_camera =
-        scene.simulator.views()[0].camera.worldFromCamera().inverse().linear() *
-        (result.poses[b].translation() - truth[b].translation());
+        scene.cameraFromFixed().linear() * (result.poses[b].translation() - truth[b].translation());
     EXPECT_LT(std::abs(error_in_camera.z()), 3.0 * result.quality[b].out_of_plane_sd_m)
         << scene.bones[b].name;
   }
   // Off by default.
   EXPECT_TRUE(registration::Registrar(scene.bones, registration::RegistrationSettings())
-                  .solve({{scene.frame.images[0], scene.simulator.views()[0].camera}}, truth)
+                  .solve(scene.views, truth)
                   .covariances.empty());
 }
 
@@ -414,8 +397,7 @@ TEST(Registrar, ParentRelativeParameterisationReachesTheSameRegistration) {
   const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
   const std::vector<Pose> start = {offset(truth[0], {0.001, -0.001, 0.002}, {0.02, -0.03, 0.02}),
                                    offset(truth[1], {-0.001, 0.001, -0.002}, {-0.03, 0.02, -0.02})};
-  const std::vector<registration::ViewImage> views = {
-      {scene.frame.images[0], scene.simulator.views()[0].camera}};
+  const auto& views = scene.views;
   const auto a = absolute.solve(views, start);
   const auto r = relative.solve(views, start);
   for (int b = 0; b < 2; ++b) {
@@ -439,7 +421,7 @@ TEST(Registrar, ParentRelativeParameterisationReachesTheSameRegistration) {
 TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
   const Scene scene;
   const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
-  const geometry::XrayCamera& camera = scene.simulator.views()[0].camera;
+  const geometry::XrayCamera& camera = scene.camera();
   const Pose camera_from_fixed = camera.worldFromCamera().inverse();
   const std::vector<Pose> start = {
       truth[0],
@@ -509,17 +491,14 @@ TEST(Registrar, MirrorCheckReversesTheTiltAloneOfATurnedTray) {
   s.motion.frames = 12;
   s.view_yaw_deg = 7.0;
   s.view_roll_deg = -3.0;
-  const sim::TrialSimulator simulator(s);
-  std::mt19937_64 rng(3);
-  const sim::SimulatedFrame frame = simulator.render(5, &rng);
-  const std::vector<registration::BoneModel> bones = test_support::simulatedKneeBones(simulator);
-  const std::vector<Pose> truth = {frame.femur, frame.tibia};
-  const geometry::XrayCamera& camera = simulator.views()[0].camera;
-  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  const SingleViewFrame scene(s, 5, 3);
+  const auto& bones = scene.bones;
+  const auto& views = scene.views;
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const Pose camera_from_fixed = scene.cameraFromFixed();
   const std::vector<Pose> start = {
-      truth[0], camera.worldFromCamera() *
+      truth[0], scene.camera().worldFromCamera() *
                     registration::tiltReflectedAcrossBeam(camera_from_fixed * truth[1])};
-  const std::vector<registration::ViewImage> views = {{frame.images[0], camera}};
   registration::RegistrationSettings settings;
   settings.depth_retry.enabled = false;  // the mirror check alone
   settings.mirror_check.tilt_reflection = false;
@@ -544,7 +523,7 @@ TEST(Registrar, MirrorCheckReversesTheTiltAloneOfATurnedTray) {
 TEST(Registrar, DepthRetryRecoversAStartFarAlongTheBeam) {
   const Scene scene;
   const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
-  const geometry::XrayCamera& camera = scene.simulator.views()[0].camera;
+  const geometry::XrayCamera& camera = scene.camera();
   const Pose camera_from_fixed = camera.worldFromCamera().inverse();
   std::vector<Pose> start = truth;
   for (int b = 0; b < 2; ++b) {
@@ -648,7 +627,7 @@ TEST(Registrar, JointsMustNameTwoBonesOfTheRegistrar) {
 
 TEST(Registrar, ContourMetricIsSmallestNearTheTruthAndGrowsWithOffset) {
   const Scene scene;
-  const auto& camera = scene.simulator.views()[0].camera;
+  const auto& camera = scene.camera();
   const imaging::EdgeMap map(scene.frame.images[0], camera, imaging::EdgeMapSettings());
   const auto cost_at = [&](double dx) {
     const Pose pose = offset(scene.frame.femur, {dx, 0.0, 0.0}, Eigen::Vector3d::Zero());
@@ -679,7 +658,7 @@ TEST(Registrar, ContourMetricIsSmallestNearTheTruthAndGrowsWithOffset) {
 
 TEST(Registrar, AnalyticJacobianMatchesFiniteDifferences) {
   const Scene scene;
-  const auto& camera = scene.simulator.views()[0].camera;
+  const auto& camera = scene.camera();
   const imaging::EdgeMap map(scene.frame.images[0], camera, imaging::EdgeMapSettings());
   const Pose pose = offset(scene.frame.tibia, {0.0008, 0.0, 0.0}, Eigen::Vector3d::Zero());
   const auto contour = scene.bones[1].silhouette->contour(map.camera(), pose, 4.0);
@@ -776,7 +755,7 @@ TEST(Registrar, PoseIncrementRotatesAboutTheCentre) {
 TEST(Registrar, BadInputsNameTheProblem) {
   const Scene scene;
   const registration::Registrar registrar(scene.bones, registration::RegistrationSettings());
-  const auto& camera = scene.simulator.views()[0].camera;
+  const auto& camera = scene.camera();
   const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
   EXPECT_THROW_WITH(registrar.solve({}, truth), "no views");
   EXPECT_THROW_WITH(registrar.solve({{scene.frame.images[0], camera}}, {truth[0]}),
