@@ -17,6 +17,27 @@ TEST(NormalizedCrossCorrelation, IsOneForAffineCopiesAndMinusOneForInverses) {
   EXPECT_EQ(imaging::normalizedCrossCorrelation(a, cv::Mat(20, 20, CV_8U, cv::Scalar(7))), 0.0);
 }
 
+// Only the mask's pixels count: images that agree inside it and disagree outside correlate
+// fully with the mask and partly without; float images give what their 8-bit copies give.
+TEST(NormalizedCrossCorrelation, CountsOnlyTheMasksPixelsAndTakesAnyDepth) {
+  cv::Mat a(30, 40, CV_8U);
+  cv::randu(a, 0, 200);
+  cv::Mat b = 255 - a;
+  cv::Mat mask(a.size(), CV_8U, cv::Scalar(0));
+  mask(cv::Rect(5, 5, 20, 15)).setTo(255);
+  a(cv::Rect(5, 5, 20, 15)).copyTo(b(cv::Rect(5, 5, 20, 15)));
+  EXPECT_NEAR(imaging::normalizedCrossCorrelation(a, b, mask), 1.0, 1e-12);
+  EXPECT_LT(imaging::normalizedCrossCorrelation(a, b), 0.0);
+  cv::Mat fa;
+  cv::Mat fb;
+  a.convertTo(fa, CV_32F, 0.01);
+  b.convertTo(fb, CV_64F, 3.0, -2.0);
+  EXPECT_NEAR(imaging::normalizedCrossCorrelation(fa, fb),
+              imaging::normalizedCrossCorrelation(a, b), 1e-9);
+  EXPECT_EQ(imaging::normalizedCrossCorrelation(a, b, cv::Mat(a.size(), CV_8U, cv::Scalar(0))),
+            0.0);
+}
+
 // Both halves of the metric peak at the true pose of a simulated frame and fall with offset,
 // in either polarity.
 TEST(ProjectionSimilarity, IsHighestAtTheTruePoseAndFallsWithOffset) {
