@@ -307,7 +307,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   mirror.allowOnly({"enabled", "cost_tolerance", "min_difference_deg", "max_difference_deg",
                     "min_neutral_gain", "tracking_turn_max_difference_deg", "outer_iterations",
                     "solver_iterations", "turn_reflection", "mirror_reflection", "tilt_reflection",
-                    "abandon_cost_ratio", "abandon_deviation_excess"});
+                    "abandon_cost_ratio", "abandon_deviation_excess", "start_deviation_excess"});
   mirror.read("enabled", &r.mirror_check.enabled);
   mirror.read("cost_tolerance", &r.mirror_check.cost_tolerance);
   mirror.read("min_difference_deg", &r.mirror_check.min_difference_deg);
@@ -321,6 +321,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   mirror.read("tilt_reflection", &r.mirror_check.tilt_reflection);
   mirror.read("abandon_cost_ratio", &r.mirror_check.abandon_cost_ratio);
   mirror.read("abandon_deviation_excess", &r.mirror_check.abandon_deviation_excess);
+  mirror.read("start_deviation_excess", &r.mirror_check.start_deviation_excess);
   const YamlSection depth_retry = section.child("depth_retry");
   depth_retry.allowOnly({"enabled", "shifts_mm"});
   depth_retry.read("enabled", &r.depth_retry.enabled);

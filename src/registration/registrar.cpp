@@ -513,13 +513,14 @@ void RegistrationSettings::validate() const {
       !(mirror_check.max_difference_deg >= mirror_check.min_difference_deg) ||
       !(mirror_check.tracking_turn_max_difference_deg >= 0.0) ||
       mirror_check.outer_iterations < 1 || mirror_check.solver_iterations < 1 ||
-      !(mirror_check.abandon_cost_ratio > 0.0) || !(mirror_check.abandon_deviation_excess > 0.0)) {
+      !(mirror_check.abandon_cost_ratio > 0.0) || !(mirror_check.abandon_deviation_excess > 0.0) ||
+      !(mirror_check.start_deviation_excess > 0.0)) {
     throw InputError(
         "registration: mirror_check needs cost_tolerance >= 0, min_difference_deg >= 0, "
         "min_neutral_gain >= 0, "
         "max_difference_deg >= min_difference_deg, tracking_turn_max_difference_deg >= 0, "
-        "outer_iterations >= 1, solver_iterations >= 1, abandon_cost_ratio > 0 and "
-        "abandon_deviation_excess > 0");
+        "outer_iterations >= 1, solver_iterations >= 1, abandon_cost_ratio > 0, "
+        "abandon_deviation_excess > 0 and start_deviation_excess > 0");
   }
   for (double shift : depth_retry.shifts_mm) {
     if (!std::isfinite(shift) || shift == 0.0) {
@@ -651,6 +652,9 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
       if (tried) continue;
       std::vector<geometry::Pose> starts = result.poses;
       starts[joint.child] = camera_from_fixed.inverse() * candidate;
+      if (deviation(starts) > required_deviation + settings_.mirror_check.start_deviation_excess) {
+        continue;
+      }
       // The mirror differs from the solution in rotation only: the finest scale's maps serve.
       const CandidateGate gate{
           settings_.mirror_check.abandon_cost_ratio * first_cost, deviation,

@@ -778,6 +778,11 @@ int main(int argc, char** argv) {
           ->default_value(settings.mirror_check.abandon_deviation_excess),
       "... or its joint farther from neutral than the deviation it must beat by more than this "
       "(units of the ligament bounds; 1e9: never)")(
+      "mirror-start-deviation-excess",
+      po::value(&settings.mirror_check.start_deviation_excess)
+          ->default_value(settings.mirror_check.start_deviation_excess),
+      "a mirror whose start is farther from neutral than the deviation it must beat by more than "
+      "this is not solved (units of the ligament bounds; 1e9: never)")(
       "clahe", po::value(&settings.edges.clahe)->default_value(settings.edges.clahe),
       "contrast-limited adaptive equalisation of each edge map's grey levels (true/false)")(
       "clahe-clip-limit",

@@ -357,7 +357,8 @@ registration:
   mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, solver_iterations: 5,
                  turn_reflection: false, mirror_reflection: false, tilt_reflection: false, max_difference_deg: 30,
                  tracking_turn_max_difference_deg: 4, min_neutral_gain: 0.25,
-                 abandon_cost_ratio: 3.5, abandon_deviation_excess: 0.5}
+                 abandon_cost_ratio: 3.5, abandon_deviation_excess: 0.5,
+                 start_deviation_excess: 2.5}
   depth_retry: {enabled: false, shifts_mm: [-10, 10, -25]}
   quality: {relative_inlier_drop: 0.2, relative_inlier_spread: 2.5, relative_inlier_window: 10,
             relative_inlier_min_frames: 5}
@@ -378,6 +379,7 @@ registration:
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_neutral_gain, 0.25);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.abandon_cost_ratio, 3.5);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.abandon_deviation_excess, 0.5);
+  EXPECT_DOUBLE_EQ(c.registration.mirror_check.start_deviation_excess, 2.5);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_difference_deg,
                    registration::MirrorCheckSettings().min_difference_deg);
   EXPECT_FALSE(c.registration.depth_retry.enabled);
@@ -435,6 +437,8 @@ registration:
   expectRegistrationRejected("{mirror_check: {abandon_cost_ratio: 0}}", "abandon_cost_ratio > 0");
   expectRegistrationRejected("{mirror_check: {abandon_deviation_excess: -1}}",
                              "abandon_deviation_excess > 0");
+  expectRegistrationRejected("{mirror_check: {start_deviation_excess: .nan}}",
+                             "start_deviation_excess > 0");
   expectRegistrationRejected("{depth_retry: {shifts_mm: [-15, 0]}}",
                              "depth_retry: shifts_mm must be finite and non-zero");
   expectRegistrationRejected("{quality: {relative_inlier_drop: -0.1}}",

@@ -474,12 +474,20 @@ TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
   settings.mirror_check.abandon_cost_ratio = 1e9;
   settings.mirror_check.min_neutral_gain = deviation(unchecked.poses) - 1e-6;
   settings.mirror_check.abandon_deviation_excess = 1e9;
+  settings.mirror_check.start_deviation_excess = 1e9;
   const auto ungated = registration::Registrar(scene.bones, settings, {knee}).solve(views, start);
   settings.mirror_check.abandon_deviation_excess = 1e-6;
   const auto far = registration::Registrar(scene.bones, settings, {knee}).solve(views, start);
   EXPECT_NEAR(deviation(ungated.poses), deviation(unchecked.poses), 1e-9);
   EXPECT_NEAR(deviation(far.poses), deviation(unchecked.poses), 1e-9);
   EXPECT_LT(far.cost_evaluations, ungated.cost_evaluations);
+  // ... and one that starts that far (start_deviation_excess) is not solved at all: the
+  // solution and its cost evaluations are the unchecked registration's.
+  settings.mirror_check.abandon_deviation_excess = 1e9;
+  settings.mirror_check.start_deviation_excess = 1e-6;
+  const auto skipped = registration::Registrar(scene.bones, settings, {knee}).solve(views, start);
+  EXPECT_NEAR(deviation(skipped.poses), deviation(unchecked.poses), 1e-9);
+  EXPECT_EQ(skipped.cost_evaluations, unchecked.cost_evaluations);
 }
 
 // A view turned 7 deg about the leg: the tray is seen nearly edge-on but turned about its stem.
