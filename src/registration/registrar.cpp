@@ -142,6 +142,20 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
       if (cell_of_sample[j] >= 0) samples_by_cell[next[cell_of_sample[j]]++] = static_cast<int>(j);
     }
   }
+  // Cells with a sample in their 3 x 3 neighbourhood: edge pixels elsewhere (most of the bone's
+  // interior and background) are skipped without visiting the cells.
+  std::vector<std::uint8_t> near_samples(static_cast<std::size_t>(grid_cols * grid_rows), 0);
+  for (int gv = 0; gv < grid_rows; ++gv) {
+    for (int gu = 0; gu < grid_cols; ++gu) {
+      const int g = gv * grid_cols + gu;
+      if (cell_start[g] == cell_start[g + 1]) continue;
+      for (int nv = std::max(0, gv - 1); nv <= std::min(grid_rows - 1, gv + 1); ++nv) {
+        for (int nu = std::max(0, gu - 1); nu <= std::min(grid_cols - 1, gu + 1); ++nu) {
+          near_samples[nv * grid_cols + nu] = 1;
+        }
+      }
+    }
+  }
   struct Candidate {
     int u;
     int v;
@@ -152,9 +166,11 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
   for (int v = 0; v < edges.rows; ++v) {
     const std::uint8_t* e = edges.ptr<std::uint8_t>(v);
     const int cell_v = v / cell;
+    const std::uint8_t* near_row = near_samples.data() + cell_v * grid_cols;
     for (int u = 0; u < edges.cols; ++u) {
       if (e[u] == 0) continue;
       const int cell_u = u / cell;
+      if (near_row[cell_u] == 0) continue;
       double best = band_squared;
       int nearest = -1;
       for (int gv = std::max(0, cell_v - 1); gv <= std::min(grid_rows - 1, cell_v + 1); ++gv) {
