@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 #include <opencv2/imgproc.hpp>
@@ -14,18 +15,45 @@ namespace {
 
 // Grey levels below which `low` and `high` fractions of an 8- or 16-bit region lie, from its
 // histogram (linear time, no copy).
+// Counts `row[u]`'s bins into `histogram` (size 4 x levels, four interleaved copies summed into
+// the first): runs of equal neighbouring values, as in a radiograph's background, would otherwise
+// make each increment wait for the one before on the same counter.
+template <typename T, typename BinOf>
+void countBins(const T* row, int cols, int levels, BinOf bin_of,
+               std::vector<std::uint32_t>* histogram) {
+  std::uint32_t* h = histogram->data();
+  int u = 0;
+  for (; u + 4 <= cols; u += 4) {
+    ++h[bin_of(row[u])];
+    ++h[levels + bin_of(row[u + 1])];
+    ++h[2 * levels + bin_of(row[u + 2])];
+    ++h[3 * levels + bin_of(row[u + 3])];
+  }
+  for (; u < cols; ++u) ++h[bin_of(row[u])];
+}
+
+// The four interleaved copies of countBins summed (64-bit: a region may hold more than 2^32
+// pixels' worth of rows only in theory, but each copy's count stays below its row total).
+std::vector<std::size_t> sumBins(const std::vector<std::uint32_t>& histogram, int levels) {
+  std::vector<std::size_t> sum(static_cast<std::size_t>(levels), 0);
+  for (int k = 0; k < 4; ++k) {
+    for (int g = 0; g < levels; ++g) sum[g] += histogram[static_cast<std::size_t>(k * levels + g)];
+  }
+  return sum;
+}
+
 std::pair<double, double> percentiles(const cv::Mat& region, double low, double high) {
   const int levels = region.depth() == CV_8U ? 256 : 65536;
-  std::vector<std::size_t> histogram(levels, 0);
+  std::vector<std::uint32_t> counts(static_cast<std::size_t>(4 * levels), 0);
+  const auto identity = [](auto x) { return static_cast<int>(x); };
   for (int v = 0; v < region.rows; ++v) {
     if (region.depth() == CV_8U) {
-      const std::uint8_t* row = region.ptr<std::uint8_t>(v);
-      for (int u = 0; u < region.cols; ++u) ++histogram[row[u]];
+      countBins(region.ptr<std::uint8_t>(v), region.cols, levels, identity, &counts);
     } else {
-      const std::uint16_t* row = region.ptr<std::uint16_t>(v);
-      for (int u = 0; u < region.cols; ++u) ++histogram[row[u]];
+      countBins(region.ptr<std::uint16_t>(v), region.cols, levels, identity, &counts);
     }
   }
+  const std::vector<std::size_t> histogram = sumBins(counts, levels);
   const double total = static_cast<double>(region.total());
   double lo = 0.0;
   double hi = levels - 1.0;
@@ -74,11 +102,11 @@ float percentile(const cv::Mat& values, double fraction) {
   const auto bin_of = [&](float x) {
     return std::clamp(static_cast<int>(x * to_bin), 0, kBins - 1);
   };
-  std::vector<std::size_t> histogram(kBins, 0);
+  std::vector<std::uint32_t> counts(4 * kBins, 0);
   for (int v = 0; v < values.rows; ++v) {
-    const float* row = values.ptr<float>(v);
-    for (int u = 0; u < values.cols; ++u) ++histogram[bin_of(row[u])];
+    countBins(values.ptr<float>(v), values.cols, kBins, bin_of, &counts);
   }
+  const std::vector<std::size_t> histogram = sumBins(counts, kBins);
   int bin = 0;
   std::size_t below = 0;
   while (below + histogram[bin] <= k) below += histogram[bin++];
