@@ -167,13 +167,30 @@ std::vector<EdgeMatch> SilhouetteLibrary::matchEdges(
     int count, double roll_step_deg, double position_step_px, double truncation_px,
     double min_separation_deg, double min_separation_px) const {
   if (edge_distance.empty() || edge_distance.type() != CV_32F || count < 1) return {};
-  // Truncated distances, so that a lookup is one read.
+  // Truncated distances, so that a lookup is one read; padded with the truncation distance as
+  // far as any outline reaches, so that a point beyond the frame reads what it costs.
   cv::Mat truncated;
   cv::min(cv::abs(edge_distance), truncation_px, truncated);
   const cv::Rect area = search & cv::Rect(0, 0, truncated.cols, truncated.rows);
   if (area.empty()) return {};
   const int step = std::max(1, static_cast<int>(std::lround(position_step_px)));
   const int rolls = std::max(1, static_cast<int>(std::lround(360.0 / roll_step_deg)));
+  double reach_m = 0.0;
+  for (const auto& t : templates_) {
+    for (const Eigen::Vector2d& q : t.outline_m) reach_m = std::max(reach_m, q.norm());
+  }
+  double max_scale = 0.0;
+  for (const double scale : px_per_m) max_scale = std::max(max_scale, std::abs(scale));
+  const int pad = static_cast<int>(std::ceil(reach_m * max_scale)) + 2;
+  cv::Mat padded;
+  cv::copyMakeBorder(truncated, padded, pad, pad, pad, pad, cv::BORDER_CONSTANT,
+                     cv::Scalar(truncation_px));
+  // Placements on a grid every `step` pixels; each one's score summed point by point in the
+  // outline's order, a row of placements at a time (contiguous reads instead of one gather per
+  // point and placement).
+  const int columns = (area.width + step - 1) / step;
+  const int rows = (area.height + step - 1) / step;
+  std::vector<double> sums(static_cast<std::size_t>(columns) * static_cast<std::size_t>(rows));
   std::vector<EdgeMatch> best_per_orientation;
   std::vector<cv::Point> offsets;
   for (std::size_t t = 0; t < templates_.size(); ++t) {
@@ -189,21 +206,23 @@ std::vector<EdgeMatch> SilhouetteLibrary::matchEdges(
           offsets.emplace_back(static_cast<int>(std::lround(o.x())),
                                static_cast<int>(std::lround(o.y())));
         }
+        std::fill(sums.begin(), sums.end(), 0.0);
+        for (const cv::Point& o : offsets) {
+          for (int j = 0; j < rows; ++j) {
+            const float* row =
+                padded.ptr<float>(area.y + j * step + o.y + pad) + area.x + o.x + pad;
+            double* sum = sums.data() + static_cast<std::size_t>(j) * columns;
+            for (int i = 0; i < columns; ++i) sum[i] += row[i * step];
+          }
+        }
         EdgeMatch best{static_cast<int>(t), roll, Eigen::Vector2d::Zero(), scale,
                        std::numeric_limits<double>::infinity()};
-        for (int v = area.y; v < area.y + area.height; v += step) {
-          for (int u = area.x; u < area.x + area.width; u += step) {
-            double sum = 0.0;
-            for (const cv::Point& o : offsets) {
-              const int x = u + o.x;
-              const int y = v + o.y;
-              sum += (x >= 0 && y >= 0 && x < truncated.cols && y < truncated.rows)
-                         ? truncated.at<float>(y, x)
-                         : truncation_px;
-            }
+        for (int j = 0; j < rows; ++j) {
+          for (int i = 0; i < columns; ++i) {
+            const double sum = sums[static_cast<std::size_t>(j) * columns + i];
             if (sum < best.mean_distance_px) {
               best.mean_distance_px = sum;
-              best.origin_px = Eigen::Vector2d(u, v);
+              best.origin_px = Eigen::Vector2d(area.x + i * step, area.y + j * step);
             }
           }
         }

@@ -5,6 +5,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "../test_support.h"
 #include "fluoro_tracker/imaging/edge_map.h"
@@ -92,6 +93,35 @@ TEST(SilhouetteLibrary, EdgeMatchingPlacesTheTrayOnItsOutline) {
                  geometry::radToDeg(geometry::rotationAngleBetween(pose.linear(), truth.linear())));
   }
   EXPECT_LT(best_angle, 20.0);
+}
+
+// Placements reaching past the distance map's border count truncation_px for the points
+// outside: the same placements and scores as on the map padded with that distance, where every
+// point lies inside (the border and interior paths of the search agree).
+TEST(SilhouetteLibrary, EdgeMatchingPastTheBorderScoresLikeAPaddedMap) {
+  sim::TrialSimulatorSettings s;
+  s.motion.frames = 10;
+  const sim::TrialSimulator sim(s);
+  const imaging::SilhouetteLibrary library(sim.implants().tibial_tray, 30.0);
+  cv::Mat distance(90, 120, CV_32F);
+  cv::randu(distance, 0.0, 5.0);
+  cv::GaussianBlur(distance, distance, cv::Size(0, 0), 3.0);
+  const int pad = 80;
+  cv::Mat padded;
+  cv::copyMakeBorder(distance, padded, pad, pad, pad, pad, cv::BORDER_CONSTANT, cv::Scalar(3.0));
+  const double px_per_m = 600.0;  // the tray about 45 px across: most placements cross a border
+  const cv::Rect search(0, 0, distance.cols, distance.rows);  // the origins stay on the map
+  const auto direct = library.matchEdges(distance, search, {px_per_m}, 5, 30.0, 4.0);
+  const auto shifted =
+      library.matchEdges(padded, search + cv::Point(pad, pad), {px_per_m}, 5, 30.0, 4.0);
+  ASSERT_EQ(direct.size(), 5u);
+  ASSERT_EQ(shifted.size(), direct.size());
+  for (std::size_t k = 0; k < direct.size(); ++k) {
+    EXPECT_EQ(direct[k].template_index, shifted[k].template_index) << k;
+    EXPECT_EQ(direct[k].roll_rad, shifted[k].roll_rad) << k;
+    EXPECT_EQ(direct[k].origin_px + Eigen::Vector2d(pad, pad), shifted[k].origin_px) << k;
+    EXPECT_NEAR(direct[k].mean_distance_px, shifted[k].mean_distance_px, 1e-12) << k;
+  }
 }
 
 // In deep flexion the femoral component and the tray form one region; the search still finds
