@@ -13,11 +13,10 @@ namespace fluoro_tracker {
 namespace imaging {
 namespace {
 
-// Grey levels below which `low` and `high` fractions of an 8- or 16-bit region lie, from its
-// histogram (linear time, no copy).
-// Counts `row[u]`'s bins into `histogram` (size 4 x levels, four interleaved copies summed into
-// the first): runs of equal neighbouring values, as in a radiograph's background, would otherwise
-// make each increment wait for the one before on the same counter.
+// Counts a row's values into `histogram`, bin_of(value) of them, in four interleaved copies
+// (size 4 x levels; sumBins adds them up): runs of equal neighbouring values, as in a
+// radiograph's background, would otherwise make each increment wait for the one before on the
+// same counter.
 template <typename T, typename BinOf>
 void countBins(const T* row, int cols, int levels, BinOf bin_of,
                std::vector<std::uint32_t>* histogram) {
@@ -32,8 +31,7 @@ void countBins(const T* row, int cols, int levels, BinOf bin_of,
   for (; u < cols; ++u) ++h[bin_of(row[u])];
 }
 
-// The four interleaved copies of countBins summed (64-bit: a region may hold more than 2^32
-// pixels' worth of rows only in theory, but each copy's count stays below its row total).
+// The histogram: the four copies countBins filled, added up.
 std::vector<std::size_t> sumBins(const std::vector<std::uint32_t>& histogram, int levels) {
   std::vector<std::size_t> sum(static_cast<std::size_t>(levels), 0);
   for (int k = 0; k < 4; ++k) {
@@ -42,6 +40,8 @@ std::vector<std::size_t> sumBins(const std::vector<std::uint32_t>& histogram, in
   return sum;
 }
 
+// Grey levels below which `low` and `high` fractions of an 8- or 16-bit region lie, from its
+// histogram (linear time, no copy).
 std::pair<double, double> percentiles(const cv::Mat& region, double low, double high) {
   const int levels = region.depth() == CV_8U ? 256 : 65536;
   std::vector<std::uint32_t> counts(static_cast<std::size_t>(4 * levels), 0);

@@ -18,23 +18,26 @@ double normalizedCrossCorrelation(const cv::Mat& a, const cv::Mat& b, const cv::
   // 1024 x 1024 frame's score took ~0.3 s, and the freed memory slowed what ran next).
   cv::Mat row_a;
   cv::Mat row_b;
-  const auto for_each_row = [&](const auto& body) {
+  // Calls body(a, b) for each pixel pair the mask lets through, in raster order.
+  const auto for_each_pixel = [&](const auto& body) {
     for (int v = 0; v < a.rows; ++v) {
       a.row(v).convertTo(row_a, CV_64F);
       b.row(v).convertTo(row_b, CV_64F);
-      body(row_a.ptr<double>(), row_b.ptr<double>(), mask.empty() ? nullptr : mask.ptr<uchar>(v));
+      const double* x = row_a.ptr<double>();
+      const double* y = row_b.ptr<double>();
+      const uchar* m = mask.empty() ? nullptr : mask.ptr<uchar>(v);
+      for (int u = 0; u < a.cols; ++u) {
+        if (m == nullptr || m[u] != 0) body(x[u], y[u]);
+      }
     }
   };
   double count = 0.0;
   double sum_a = 0.0;
   double sum_b = 0.0;
-  for_each_row([&](const double* x, const double* y, const uchar* m) {
-    for (int u = 0; u < a.cols; ++u) {
-      if (m != nullptr && m[u] == 0) continue;
-      count += 1.0;
-      sum_a += x[u];
-      sum_b += y[u];
-    }
+  for_each_pixel([&](double x, double y) {
+    count += 1.0;
+    sum_a += x;
+    sum_b += y;
   });
   if (count == 0.0) return 0.0;
   const double mean_a = sum_a / count;
@@ -42,15 +45,12 @@ double normalizedCrossCorrelation(const cv::Mat& a, const cv::Mat& b, const cv::
   double saa = 0.0;
   double sbb = 0.0;
   double sab = 0.0;
-  for_each_row([&](const double* x, const double* y, const uchar* m) {
-    for (int u = 0; u < a.cols; ++u) {
-      if (m != nullptr && m[u] == 0) continue;
-      const double da = x[u] - mean_a;
-      const double db = y[u] - mean_b;
-      saa += da * da;
-      sbb += db * db;
-      sab += da * db;
-    }
+  for_each_pixel([&](double x, double y) {
+    const double da = x - mean_a;
+    const double db = y - mean_b;
+    saa += da * da;
+    sbb += db * db;
+    sab += da * db;
   });
   if (saa <= 0.0 || sbb <= 0.0) return 0.0;
   return sab / std::sqrt(saa * sbb);
