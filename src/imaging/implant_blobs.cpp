@@ -22,8 +22,9 @@ float quantile(const cv::Mat& image, double fraction) {
 bool isDuplicate(const ImplantBlob& blob, const std::vector<ImplantBlob>& kept) {
   for (const auto& other : kept) {
     const double area_ratio = blob.area_px / other.area_px;
-    if (other.dark == blob.dark && (blob.centroid - other.centroid).norm() < 3.0 / blob.scale &&
-        area_ratio > 0.9 && area_ratio < 1.1) {
+    if (other.dark == blob.dark && other.neck_part == blob.neck_part &&
+        (blob.centroid - other.centroid).norm() < 3.0 / blob.scale && area_ratio > 0.9 &&
+        area_ratio < 1.1) {
       return true;
     }
   }
@@ -48,39 +49,155 @@ std::vector<ImplantBlob> findImplantBlobs(const cv::Mat& image,
   const float high = quantile(grey, settings.window_high_percentile / 100.0);
   if (!(high > low)) return {};
   const double total = static_cast<double>(grey.total());
-  const cv::Mat opening = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(3, 3));
   std::vector<ImplantBlob> blobs;
+  const auto touchesBorder = [&](const cv::Rect& box) {
+    return box.x == 0 || box.y == 0 || box.br().x == grey.cols || box.br().y == grey.rows;
+  };
+  // Adds one region (`mask` covering `box` of the working image) unless a near-duplicate is in.
+  const auto add = [&](const cv::Mat& mask, const cv::Rect& box, bool dark, bool neck_part) {
+    const cv::Moments m = cv::moments(mask, true);
+    if (!(m.m00 > 0.0)) return;
+    ImplantBlob blob;
+    blob.mask = mask.clone();
+    blob.box = box;
+    blob.scale = scale;
+    // Pixel centres: mask pixel (x, y) covers frame pixels around ((x + 0.5) / s - 0.5).
+    blob.centroid = Eigen::Vector2d((box.x + m.m10 / m.m00 + 0.5) / scale - 0.5,
+                                    (box.y + m.m01 / m.m00 + 0.5) / scale - 0.5);
+    blob.area_px = m.m00 / (scale * scale);
+    blob.dark = dark;
+    blob.neck_part = neck_part;
+    if (!isDuplicate(blob, blobs)) blobs.push_back(std::move(blob));
+  };
+  const int neck = std::max(settings.neck_split_px, 1);
+  const cv::Mat neck_opening = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(neck, neck));
+  // Adds the regions of `mask` that do not touch the border, are neither noise nor background
+  // and do not overlap `excluded` (if not empty).
+  const auto collect = [&](const cv::Mat& mask, bool dark, const cv::Mat& excluded) {
+    cv::Mat labels;
+    cv::Mat stats;
+    cv::Mat centroids;
+    const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+    for (int label = 1; label < count; ++label) {
+      const cv::Rect box(
+          stats.at<int>(label, cv::CC_STAT_LEFT), stats.at<int>(label, cv::CC_STAT_TOP),
+          stats.at<int>(label, cv::CC_STAT_WIDTH), stats.at<int>(label, cv::CC_STAT_HEIGHT));
+      const double area = stats.at<int>(label, cv::CC_STAT_AREA);
+      if (touchesBorder(box) || area < settings.min_area_fraction * total ||
+          area > settings.max_area_fraction * total) {
+        continue;
+      }
+      const cv::Mat region = labels(box) == label;
+      if (!excluded.empty() && cv::countNonZero(region & excluded(box)) > 0) continue;
+      add(region, box, dark, false);
+      if (settings.neck_split_px < 3) continue;
+      // Two implants whose outlines touch (the components in extension, or joined by a rod's
+      // stub) make one region through a narrow neck: its parts are candidates as well.
+      cv::Mat parts;
+      cv::morphologyEx(region, parts, cv::MORPH_OPEN, neck_opening);
+      cv::Mat part_labels;
+      cv::Mat part_stats;
+      cv::Mat part_centroids;
+      const int part_count = cv::connectedComponentsWithStats(parts, part_labels, part_stats,
+                                                              part_centroids, 8, CV_32S);
+      // Each part a fair share of the region, as each implant is of both: a small part's size
+      // would put its matches far along the beam.
+      const double min_part_area =
+          std::max(settings.min_area_fraction * total, settings.min_neck_part_fraction * area);
+      int sizeable = 0;
+      for (int p = 1; p < part_count; ++p) {
+        if (part_stats.at<int>(p, cv::CC_STAT_AREA) >= min_part_area) ++sizeable;
+      }
+      if (sizeable < 2) continue;
+      for (int p = 1; p < part_count; ++p) {
+        if (part_stats.at<int>(p, cv::CC_STAT_AREA) < min_part_area) continue;
+        const cv::Rect part_box(
+            part_stats.at<int>(p, cv::CC_STAT_LEFT), part_stats.at<int>(p, cv::CC_STAT_TOP),
+            part_stats.at<int>(p, cv::CC_STAT_WIDTH), part_stats.at<int>(p, cv::CC_STAT_HEIGHT));
+        add(part_labels(part_box) == p, part_box + box.tl(), dark, true);
+      }
+    }
+  };
+  // The regions of `mask` that touch the border.
+  const auto borderRegions = [&](const cv::Mat& mask) {
+    cv::Mat labels;
+    cv::Mat stats;
+    cv::Mat centroids;
+    const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+    cv::Mat touching = cv::Mat::zeros(mask.size(), CV_8U);
+    for (int label = 1; label < count; ++label) {
+      const cv::Rect box(
+          stats.at<int>(label, cv::CC_STAT_LEFT), stats.at<int>(label, cv::CC_STAT_TOP),
+          stats.at<int>(label, cv::CC_STAT_WIDTH), stats.at<int>(label, cv::CC_STAT_HEIGHT));
+      if (touchesBorder(box)) touching.setTo(255, labels == label);
+    }
+    return touching;
+  };
+  const cv::Mat opening = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(3, 3));
+  const int thin = settings.strip_width_px + 1;
+  const cv::Mat thin_opening = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(thin, thin));
+  const double min_strip_length =
+      settings.min_strip_length_fraction * std::max(grey.cols, grey.rows);
+  // The strips of a region (CV_8U, 255 on them), widened by a pixel. A rod, wire or cable as
+  // dark as the metal that crosses an implant joins its region and spoils its shape, and the
+  // size and place the region implies (the search's distance and position). Such a strip is
+  // thinner than an implant's body and longer than any thin part of one (a tray's plate seen
+  // edge-on).
+  const auto findStrips = [&](const cv::Mat& mask) {
+    cv::Mat strips = cv::Mat::zeros(mask.size(), CV_8U);
+    cv::Mat opened;
+    cv::morphologyEx(mask, opened, cv::MORPH_OPEN, thin_opening);
+    const cv::Mat thin_parts = mask & ~opened;
+    cv::Mat labels;
+    cv::Mat stats;
+    cv::Mat centroids;
+    const int count =
+        cv::connectedComponentsWithStats(thin_parts, labels, stats, centroids, 8, CV_32S);
+    for (int label = 1; label < count; ++label) {
+      const int extent = std::max(stats.at<int>(label, cv::CC_STAT_WIDTH),
+                                  stats.at<int>(label, cv::CC_STAT_HEIGHT));
+      if (extent < min_strip_length) continue;
+      // Straight, too: a curved thin part of an implant (a femoral component's rim seen from
+      // the side) is long but not narrow along its own axis.
+      const cv::Mat component = labels == label;
+      std::vector<cv::Point> points;
+      cv::findNonZero(component, points);
+      const cv::Size2f box = cv::minAreaRect(points).size;
+      if (std::min(box.width, box.height) <= settings.strip_width_px + 2.0) {
+        strips.setTo(255, component);
+      }
+    }
+    cv::dilate(strips, strips, opening);
+    return strips;
+  };
   for (bool dark : {true, false}) {
+    // Strips found at any threshold are cut from the regions of every threshold: at the wider
+    // ones a rod runs on past the implant and through the soft tissue, while at a narrower one
+    // only its stubs inside the leg remain, as short as a tray's plate.
+    std::vector<cv::Mat> masks;
+    cv::Mat strips;
     for (double fraction : settings.threshold_fractions) {
       const double level = dark ? low + fraction * (high - low) : high - fraction * (high - low);
       cv::Mat mask = dark ? (grey <= level) : (grey >= level);
       cv::morphologyEx(mask, mask, cv::MORPH_OPEN, opening);
-      cv::Mat labels;
-      cv::Mat stats;
-      cv::Mat centroids;
-      const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
-      for (int label = 1; label < count; ++label) {
-        const cv::Rect box(
-            stats.at<int>(label, cv::CC_STAT_LEFT), stats.at<int>(label, cv::CC_STAT_TOP),
-            stats.at<int>(label, cv::CC_STAT_WIDTH), stats.at<int>(label, cv::CC_STAT_HEIGHT));
-        const double area = stats.at<int>(label, cv::CC_STAT_AREA);
-        const bool touches_border =
-            box.x == 0 || box.y == 0 || box.br().x == grey.cols || box.br().y == grey.rows;
-        if (touches_border || area < settings.min_area_fraction * total ||
-            area > settings.max_area_fraction * total) {
-          continue;
-        }
-        ImplantBlob blob;
-        blob.mask = (labels(box) == label);
-        blob.box = box;
-        blob.scale = scale;
-        // Pixel centres: mask pixel (x, y) covers frame pixels around ((x + 0.5) / s - 0.5).
-        blob.centroid = Eigen::Vector2d((centroids.at<double>(label, 0) + 0.5) / scale - 0.5,
-                                        (centroids.at<double>(label, 1) + 0.5) / scale - 0.5);
-        blob.area_px = area / (scale * scale);
-        blob.dark = dark;
-        if (!isDuplicate(blob, blobs)) blobs.push_back(std::move(blob));
+      if (settings.strip_width_px > 2) {
+        const cv::Mat found = findStrips(mask);
+        strips = strips.empty() ? found : (strips | found);
       }
+      masks.push_back(mask);
+    }
+    const bool cut = !strips.empty() && cv::countNonZero(strips) > 0;
+    for (cv::Mat& mask : masks) {
+      if (!cut) {
+        collect(mask, dark, cv::Mat());
+        continue;
+      }
+      // The cut cleans regions, it does not make new ones: background joined to the border
+      // only through a strip (the field beside a rod) stays out.
+      const cv::Mat touching = borderRegions(mask);
+      mask.setTo(0, strips);
+      cv::morphologyEx(mask, mask, cv::MORPH_OPEN, opening);
+      collect(mask, dark, touching);
     }
   }
   return blobs;

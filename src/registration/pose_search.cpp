@@ -332,6 +332,11 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
   const ViewImage& first = views.front();
   PoseSearchResult found;
   found.regions = static_cast<int>(blobs.size());
+  // Parts of regions split at a neck are matched and refined apart from the whole regions: on
+  // a frame whose regions are sound they would only crowd the whole regions' starts out.
+  std::vector<imaging::ImplantBlob> regions;
+  std::vector<imaging::ImplantBlob> neck_parts;
+  for (const auto& blob : blobs) (blob.neck_part ? neck_parts : regions).push_back(blob);
   const imaging::EdgeMap coarse(first.image, first.camera, pass.edges, cv::Rect(),
                                 settings_.screening_scale);
 
@@ -401,9 +406,14 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
   // distances (a region thresholded from a blurred rim is smaller than the silhouette); and
   // both bones of a joint from matches of the joint's combined silhouettes.
   std::vector<std::vector<geometry::Pose>> joint_starts(bones);
+  std::vector<std::vector<geometry::Pose>> part_joint_starts(bones);
   // Per bone, distances from the source that region matches suggest (for edge matching).
   std::vector<std::vector<double>> depth_hints(bones);
-  {
+  // Both bones of a joint from the best matches of the joint's combined silhouettes to the
+  // regions (camera-frame starts, with their mirrors, into `starts`).
+  const auto jointMatchStarts = [&](const std::vector<imaging::ImplantBlob>& candidates,
+                                    std::vector<std::vector<geometry::Pose>>* starts,
+                                    std::vector<std::vector<double>>* depths) {
     struct JointStart {
       double dissimilarity;
       std::size_t joint;
@@ -412,7 +422,7 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
     };
     std::vector<JointStart> found_joints;
     for (const JointLibrary& jl : joint_libraries_) {
-      for (const auto& blob : blobs) {
+      for (const auto& blob : candidates) {
         for (const auto& match : jl.library->match(blob, 2, settings_.roll_step_deg)) {
           if (const auto parent =
                   plausibleMatchPose(*jl.library, match, blob, first.camera, settings_)) {
@@ -429,36 +439,47 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
          k < found_joints.size() && static_cast<int>(k) < settings_.joint_matches; ++k) {
       const JointStart& js = found_joints[k];
       const JointModel& joint = registrar_->joints()[js.joint];
-      depth_hints[joint.parent].push_back(js.parent.translation().z());
-      depth_hints[joint.child].push_back(js.child.translation().z());
+      if (depths != nullptr) {
+        (*depths)[joint.parent].push_back(js.parent.translation().z());
+        (*depths)[joint.child].push_back(js.child.translation().z());
+      }
       for (const double depth_factor : {1.0, 0.93}) {
         geometry::Pose parent = js.parent;
         geometry::Pose child = js.child;
         parent.translation() *= depth_factor;
         child.translation() *= depth_factor;
-        addStart(&joint_starts[joint.parent], parent);
-        addStart(&joint_starts[joint.child], child);
+        addStart(&(*starts)[joint.parent], parent);
+        addStart(&(*starts)[joint.child], child);
       }
     }
-  }
-  for (std::size_t b = 0; b < bones; ++b) {
-    std::vector<geometry::Pose> starts = joint_starts[b];
+  };
+  jointMatchStarts(regions, &joint_starts, &depth_hints);
+  if (!neck_parts.empty()) jointMatchStarts(neck_parts, &part_joint_starts, nullptr);
+  // Bone b's shape matches to the candidates, each at a few distances (returned as matched).
+  const auto addShapeStarts = [&](std::size_t b,
+                                  const std::vector<imaging::ImplantBlob>& candidates,
+                                  std::vector<geometry::Pose>* starts) {
     const std::vector<geometry::Pose> shape_starts =
-        shapeMatchStarts(*libraries_[b], blobs, first.camera, settings_);
+        shapeMatchStarts(*libraries_[b], candidates, first.camera, settings_);
     for (const geometry::Pose& camera_pose : shape_starts) {
       for (const double depth_factor : {1.0, 0.93, 0.86}) {
         geometry::Pose scaled = camera_pose;
         scaled.translation() *= depth_factor;
-        addStart(&starts, scaled);
+        addStart(starts, scaled);
       }
     }
+    return shape_starts;
+  };
+  for (std::size_t b = 0; b < bones; ++b) {
+    std::vector<geometry::Pose> starts = joint_starts[b];
+    const std::vector<geometry::Pose> shape_starts = addShapeStarts(b, regions, &starts);
     std::vector<geometry::Pose> edge_starts;
-    if (settings_.edge_matching && !blobs.empty()) {
+    if (settings_.edge_matching && !regions.empty()) {
       for (std::size_t k = 0; k < shape_starts.size() && k < 2; ++k) {
         depth_hints[b].push_back(shape_starts[k].translation().z());
       }
       for (const geometry::Pose& camera_pose :
-           edgeMatchStarts(*libraries_[b], blobs, coarse, depth_hints[b], settings_)) {
+           edgeMatchStarts(*libraries_[b], regions, coarse, depth_hints[b], settings_)) {
         addStart(&edge_starts, camera_pose);
       }
     }
@@ -467,6 +488,11 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
     // Refined apart: chamfer matches fit edges by construction, so on a cluttered frame they
     // would outscore the region matches in screening and crowd them out (real Kneel frames).
     refineBest(b, edge_starts);
+    if (!neck_parts.empty()) {
+      std::vector<geometry::Pose> part_starts = part_joint_starts[b];
+      addShapeStarts(b, neck_parts, &part_starts);
+      refineBest(b, part_starts);
+    }
   }
 
   // The rotation about a bone's long axis (mesh Y in the ISB frame) is what a silhouette shows

@@ -18,6 +18,15 @@ struct ImplantBlobSettings {
   std::vector<double> threshold_fractions = {0.08, 0.16, 0.25, 0.35, 0.45};
   double min_area_fraction = 0.001;  // of the frame; smaller regions are noise or markers
   double max_area_fraction = 0.2;    // larger ones are background
+  // Strips at most strip_width_px wide (working pixels; <= 2: none cut) and at least
+  // min_strip_length_fraction of the frame long (a rod or wire across an implant) are cut out
+  // of the thresholded regions.
+  int strip_width_px = 8;
+  double min_strip_length_fraction = 0.3;
+  // A region that an opening with a disc this wide (working pixels; < 3: none) splits into two
+  // or more parts of at least min_neck_part_fraction of its area also offers those parts.
+  int neck_split_px = 5;
+  double min_neck_part_fraction = 0.0;
 };
 
 // A connected region of extreme grey level that does not touch the frame's border (the
@@ -29,14 +38,16 @@ struct ImplantBlob {
   Eigen::Vector2d centroid;  // frame pixels
   double area_px = 0.0;      // frame pixels
   bool dark = true;          // darker than its surroundings
+  bool neck_part = false;    // a part of a region split at a narrow neck (neck_split_px)
 };
 
 // Candidate implant regions of one frame (8- or 16-bit grey), from several thresholds in
 // both polarities; near-duplicates (the same region at two thresholds) are kept once. Metal
 // implants are the most attenuating objects in a fluoroscopic image, but their grey level
 // varies with thickness, exposure and display, so no single threshold is trusted: the shape
-// matching that follows decides which region is which bone, if any. Throws InputError for an
-// empty image or an unsupported type.
+// matching that follows decides which region is which bone, if any. Long straight strips (a rod
+// or wire across an implant, see ImplantBlobSettings) are cut out of the regions first. Throws
+// InputError for an empty image or an unsupported type.
 std::vector<ImplantBlob> findImplantBlobs(const cv::Mat& image,
                                           const ImplantBlobSettings& settings = {});
 

@@ -3,12 +3,15 @@
 #include <cmath>
 #include <random>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
 #include "../test_support.h"
 #include "fluoro_tracker/imaging/edge_map.h"
+#include "fluoro_tracker/imaging/implant_blobs.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
@@ -126,6 +129,71 @@ TEST(SilhouetteLibrary, EdgeMatchingPastTheBorderScoresLikeAPaddedMap) {
 
 // In deep flexion the femoral component and the tray form one region; the search still finds
 // both (chamfer matching of each bone's library on the frame's edges).
+// A dark implant-like region (a block with a thin plate across it, as a tray seen from the
+// side) in a leg, crossed by a thin rod that runs on to the frame's border, as dark as the metal
+// inside the leg and lighter outside it: the rod's stubs inside the leg join the region (and
+// would spoil its shape and size) unless the rod, found as a long straight strip, is cut out;
+// the plate, thin but short, stays.
+TEST(ImplantBlobs, ARodAcrossAnImplantIsCutAwayAndThePlateKept) {
+  cv::Mat clean(256, 256, CV_8U, cv::Scalar(230));
+  cv::rectangle(clean, cv::Rect(70, 0, 100, 256), cv::Scalar(160), cv::FILLED);  // the leg
+  cv::rectangle(clean, cv::Rect(100, 110, 40, 60), cv::Scalar(30), cv::FILLED);  // stem
+  cv::rectangle(clean, cv::Rect(85, 104, 70, 6), cv::Scalar(30), cv::FILLED);    // plate
+  cv::Mat crossed = clean.clone();
+  cv::Mat rod = cv::Mat::zeros(clean.size(), CV_8U);
+  cv::line(rod, cv::Point(0, 200), cv::Point(255, 60), cv::Scalar(255), 5);
+  crossed.setTo(100, rod);
+  cv::Mat leg = cv::Mat::zeros(clean.size(), CV_8U);
+  leg(cv::Rect(70, 0, 100, 256)).setTo(255);
+  crossed.setTo(30, rod & leg);
+
+  const auto largestDark = [](const std::vector<imaging::ImplantBlob>& blobs) {
+    double area = 0.0;
+    Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+    for (const auto& blob : blobs) {
+      if (blob.dark && !blob.neck_part && blob.area_px > area) {
+        area = blob.area_px;
+        centroid = blob.centroid;
+      }
+    }
+    return std::make_pair(area, centroid);
+  };
+  const auto [clean_area, clean_centroid] = largestDark(imaging::findImplantBlobs(clean));
+  ASSERT_GT(clean_area, 0.9 * (40 * 60 + 70 * 6));
+  const auto [cut_area, cut_centroid] = largestDark(imaging::findImplantBlobs(crossed));
+  imaging::ImplantBlobSettings uncut;
+  uncut.strip_width_px = 0;
+  const auto [uncut_area, uncut_centroid] = largestDark(imaging::findImplantBlobs(crossed, uncut));
+  EXPECT_GT(uncut_area, 1.1 * clean_area);
+  // Most of the stubs go (nubs remain where the rod meets the block, too thick to be a strip);
+  // the plate stays.
+  EXPECT_LT(cut_area - clean_area, 0.5 * (uncut_area - clean_area));
+  EXPECT_GT(cut_area, 0.98 * clean_area);
+  EXPECT_LT((cut_centroid - clean_centroid).norm(), 2.0);
+}
+
+// Two implant-like blocks whose regions touch through a narrow neck (the components in
+// extension) make one region, and its two parts are offered too, marked as such.
+TEST(ImplantBlobs, ARegionJoinedAtANarrowNeckAlsoOffersItsParts) {
+  cv::Mat image(256, 256, CV_8U, cv::Scalar(200));
+  cv::rectangle(image, cv::Rect(100, 60, 40, 50), cv::Scalar(30), cv::FILLED);
+  cv::rectangle(image, cv::Rect(100, 113, 40, 50), cv::Scalar(30), cv::FILLED);
+  cv::rectangle(image, cv::Rect(117, 108, 4, 7), cv::Scalar(30), cv::FILLED);  // the neck
+  int whole = 0;
+  int parts = 0;
+  for (const auto& blob : imaging::findImplantBlobs(image)) {
+    if (!blob.dark) continue;
+    if (!blob.neck_part && blob.area_px > 0.9 * 2 * 40 * 50) ++whole;
+    if (blob.neck_part && blob.area_px > 0.8 * 40 * 50 && blob.area_px < 1.1 * 40 * 50) ++parts;
+  }
+  EXPECT_GE(whole, 1);
+  EXPECT_GE(parts, 2);
+
+  imaging::ImplantBlobSettings unsplit;
+  unsplit.neck_split_px = 0;
+  for (const auto& blob : imaging::findImplantBlobs(image, unsplit)) EXPECT_FALSE(blob.neck_part);
+}
+
 TEST(PoseSearch, FindsBothComponentsInDeepFlexion) {
   sim::TrialSimulatorSettings s;
   s.motion.frames = 10;
