@@ -19,6 +19,13 @@ float quantile(const cv::Mat& image, double fraction) {
   return v[k];
 }
 
+// The bounding box of connected component `label` from cv::connectedComponentsWithStats.
+cv::Rect componentBox(const cv::Mat& stats, int label) {
+  return cv::Rect(stats.at<int>(label, cv::CC_STAT_LEFT), stats.at<int>(label, cv::CC_STAT_TOP),
+                  stats.at<int>(label, cv::CC_STAT_WIDTH),
+                  stats.at<int>(label, cv::CC_STAT_HEIGHT));
+}
+
 bool isDuplicate(const ImplantBlob& blob, const std::vector<ImplantBlob>& kept) {
   for (const auto& other : kept) {
     const double area_ratio = blob.area_px / other.area_px;
@@ -79,9 +86,7 @@ std::vector<ImplantBlob> findImplantBlobs(const cv::Mat& image,
     cv::Mat centroids;
     const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
     for (int label = 1; label < count; ++label) {
-      const cv::Rect box(
-          stats.at<int>(label, cv::CC_STAT_LEFT), stats.at<int>(label, cv::CC_STAT_TOP),
-          stats.at<int>(label, cv::CC_STAT_WIDTH), stats.at<int>(label, cv::CC_STAT_HEIGHT));
+      const cv::Rect box = componentBox(stats, label);
       const double area = stats.at<int>(label, cv::CC_STAT_AREA);
       if (touchesBorder(box) || area < settings.min_area_fraction * total ||
           area > settings.max_area_fraction * total) {
@@ -100,10 +105,9 @@ std::vector<ImplantBlob> findImplantBlobs(const cv::Mat& image,
       cv::Mat part_centroids;
       const int part_count = cv::connectedComponentsWithStats(parts, part_labels, part_stats,
                                                               part_centroids, 8, CV_32S);
-      // Each part a fair share of the region, as each implant is of both: a small part's size
-      // would put its matches far along the beam.
-      const double min_part_area =
-          std::max(settings.min_area_fraction * total, settings.min_neck_part_fraction * area);
+      // Parts as small as a tray's stem count: the opening that cuts the neck also strips a
+      // tray's plate seen edge-on, leaving the stem (a tenth of a region of both components).
+      const double min_part_area = settings.min_area_fraction * total;
       int sizeable = 0;
       for (int p = 1; p < part_count; ++p) {
         if (part_stats.at<int>(p, cv::CC_STAT_AREA) >= min_part_area) ++sizeable;
@@ -111,9 +115,7 @@ std::vector<ImplantBlob> findImplantBlobs(const cv::Mat& image,
       if (sizeable < 2) continue;
       for (int p = 1; p < part_count; ++p) {
         if (part_stats.at<int>(p, cv::CC_STAT_AREA) < min_part_area) continue;
-        const cv::Rect part_box(
-            part_stats.at<int>(p, cv::CC_STAT_LEFT), part_stats.at<int>(p, cv::CC_STAT_TOP),
-            part_stats.at<int>(p, cv::CC_STAT_WIDTH), part_stats.at<int>(p, cv::CC_STAT_HEIGHT));
+        const cv::Rect part_box = componentBox(part_stats, p);
         add(part_labels(part_box) == p, part_box + box.tl(), dark, true);
       }
     }
@@ -126,10 +128,7 @@ std::vector<ImplantBlob> findImplantBlobs(const cv::Mat& image,
     const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
     cv::Mat touching = cv::Mat::zeros(mask.size(), CV_8U);
     for (int label = 1; label < count; ++label) {
-      const cv::Rect box(
-          stats.at<int>(label, cv::CC_STAT_LEFT), stats.at<int>(label, cv::CC_STAT_TOP),
-          stats.at<int>(label, cv::CC_STAT_WIDTH), stats.at<int>(label, cv::CC_STAT_HEIGHT));
-      if (touchesBorder(box)) touching.setTo(255, labels == label);
+      if (touchesBorder(componentBox(stats, label))) touching.setTo(255, labels == label);
     }
     return touching;
   };

@@ -24,9 +24,8 @@ struct ImplantBlobSettings {
   int strip_width_px = 8;
   double min_strip_length_fraction = 0.3;
   // A region that an opening with a disc this wide (working pixels; < 3: none) splits into two
-  // or more parts of at least min_neck_part_fraction of its area also offers those parts.
+  // or more parts of at least min_area_fraction also offers those parts (ImplantBlob::neck_part).
   int neck_split_px = 5;
-  double min_neck_part_fraction = 0.0;
 };
 
 // A connected region of extreme grey level that does not touch the frame's border (the
