@@ -60,18 +60,18 @@ std::vector<ImplantBlob> findImplantBlobs(const cv::Mat& image,
   const auto touchesBorder = [&](const cv::Rect& box) {
     return box.x == 0 || box.y == 0 || box.br().x == grey.cols || box.br().y == grey.rows;
   };
-  // Adds one region (`mask` covering `box` of the working image) unless a near-duplicate is in.
-  const auto add = [&](const cv::Mat& mask, const cv::Rect& box, bool dark, bool neck_part) {
-    const cv::Moments m = cv::moments(mask, true);
-    if (!(m.m00 > 0.0)) return;
+  // Adds one region unless a near-duplicate is in: `mask` covers `box` of the working image,
+  // `centroid` and `area` as connectedComponentsWithStats gives them (working pixels).
+  const auto add = [&](const cv::Mat& mask, const cv::Rect& box, const cv::Point2d& centroid,
+                       double area, bool dark, bool neck_part) {
     ImplantBlob blob;
-    blob.mask = mask.clone();
+    blob.mask = mask;
     blob.box = box;
     blob.scale = scale;
     // Pixel centres: mask pixel (x, y) covers frame pixels around ((x + 0.5) / s - 0.5).
-    blob.centroid = Eigen::Vector2d((box.x + m.m10 / m.m00 + 0.5) / scale - 0.5,
-                                    (box.y + m.m01 / m.m00 + 0.5) / scale - 0.5);
-    blob.area_px = m.m00 / (scale * scale);
+    blob.centroid =
+        Eigen::Vector2d((centroid.x + 0.5) / scale - 0.5, (centroid.y + 0.5) / scale - 0.5);
+    blob.area_px = area / (scale * scale);
     blob.dark = dark;
     blob.neck_part = neck_part;
     if (!isDuplicate(blob, blobs)) blobs.push_back(std::move(blob));
@@ -94,7 +94,7 @@ std::vector<ImplantBlob> findImplantBlobs(const cv::Mat& image,
       }
       const cv::Mat region = labels(box) == label;
       if (!excluded.empty() && cv::countNonZero(region & excluded(box)) > 0) continue;
-      add(region, box, dark, false);
+      add(region, box, centroids.at<cv::Point2d>(label), area, dark, false);
       if (settings.neck_split_px < 3) continue;
       // Two implants whose outlines touch (the components in extension, or joined by a rod's
       // stub) make one region through a narrow neck: its parts are candidates as well.
@@ -116,7 +116,9 @@ std::vector<ImplantBlob> findImplantBlobs(const cv::Mat& image,
       for (int p = 1; p < part_count; ++p) {
         if (part_stats.at<int>(p, cv::CC_STAT_AREA) < min_part_area) continue;
         const cv::Rect part_box = componentBox(part_stats, p);
-        add(part_labels(part_box) == p, part_box + box.tl(), dark, true);
+        add(part_labels(part_box) == p, part_box + box.tl(),
+            part_centroids.at<cv::Point2d>(p) + cv::Point2d(box.tl()),
+            part_stats.at<int>(p, cv::CC_STAT_AREA), dark, true);
       }
     }
   };
@@ -153,9 +155,8 @@ std::vector<ImplantBlob> findImplantBlobs(const cv::Mat& image,
     const int count =
         cv::connectedComponentsWithStats(thin_parts, labels, stats, centroids, 8, CV_32S);
     for (int label = 1; label < count; ++label) {
-      const int extent = std::max(stats.at<int>(label, cv::CC_STAT_WIDTH),
-                                  stats.at<int>(label, cv::CC_STAT_HEIGHT));
-      if (extent < min_strip_length) continue;
+      const cv::Size extent = componentBox(stats, label).size();
+      if (std::max(extent.width, extent.height) < min_strip_length) continue;
       // Straight, too: a curved thin part of an implant (a femoral component's rim seen from
       // the side) is long but not narrow along its own axis.
       const cv::Mat component = labels == label;
