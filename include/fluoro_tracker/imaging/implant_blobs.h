@@ -20,7 +20,7 @@ struct ImplantBlobSettings {
   double max_area_fraction = 0.2;    // larger ones are background
   // Strips at most strip_width_px wide (working pixels; <= 2: none cut) and at least
   // min_strip_length_fraction of the frame long (a rod or wire across an implant) are cut out
-  // of the thresholded regions.
+  // of the thresholded regions, followed along their lines up to and across the implants.
   int strip_width_px = 8;
   double min_strip_length_fraction = 0.3;
   // A region that an opening with a disc this wide (working pixels; < 3: none) splits into two
