@@ -41,19 +41,19 @@ void expectBothBonesWithinCriterion(const registration::RegistrationResult& foun
   }
 }
 
-// A tray-like dark block (a stem, and `plate` across its top) in a leg `leg_width` wide from
-// column `leg_x`, on a 256 x 256 frame.
+// A tray-like dark block (`stem`, and `plate` across one end of it) in `leg`, on a 256 x 256
+// frame.
 struct ImplantInLeg {
   cv::Mat image;
   cv::Mat leg;  // 255 inside the leg
 };
-ImplantInLeg trayInLeg(int leg_x, int leg_width, const cv::Rect& plate) {
+ImplantInLeg trayInLeg(const cv::Rect& leg, const cv::Rect& stem, const cv::Rect& plate) {
   ImplantInLeg tray;
   tray.image = cv::Mat(256, 256, CV_8U, cv::Scalar(230));
   tray.leg = cv::Mat::zeros(tray.image.size(), CV_8U);
-  tray.leg(cv::Rect(leg_x, 0, leg_width, 256)).setTo(255);
+  tray.leg(leg).setTo(255);
   tray.image.setTo(160, tray.leg);
-  cv::rectangle(tray.image, cv::Rect(100, 110, 40, 60), cv::Scalar(30), cv::FILLED);  // stem
+  cv::rectangle(tray.image, stem, cv::Scalar(30), cv::FILLED);
   cv::rectangle(tray.image, plate, cv::Scalar(30), cv::FILLED);
   return tray;
 }
@@ -191,7 +191,8 @@ TEST(SilhouetteLibrary, EdgeMatchingPastTheBorderScoresLikeAPaddedMap) {
 // would spoil its shape and size) unless the rod, found as a long straight strip, is cut out;
 // the plate, thin but short, stays.
 TEST(ImplantBlobs, ARodAcrossAnImplantIsCutAwayAndThePlateKept) {
-  const ImplantInLeg tray = trayInLeg(70, 100, cv::Rect(85, 104, 70, 6));
+  const ImplantInLeg tray =
+      trayInLeg(cv::Rect(70, 0, 100, 256), cv::Rect(100, 110, 40, 60), cv::Rect(85, 104, 70, 6));
   const cv::Mat crossed = crossedByRod(tray, cv::Point(0, 200), cv::Point(255, 60));
   const std::vector<imaging::ImplantBlob> clean = imaging::findImplantBlobs(tray.image);
   ASSERT_GT(largestDark(clean).area_px, 0.9 * (40 * 60 + 70 * 6));
@@ -209,13 +210,8 @@ TEST(ImplantBlobs, ARodAcrossAnImplantIsCutAwayAndThePlateKept) {
 // parts along its line go with it (the plate's end beyond the rod as well, see
 // findImplantBlobs).
 TEST(ImplantBlobs, ARodsStubsJoinedToAnImplantsThinPartAreCutAlongItsLine) {
-  ImplantInLeg tray;
-  tray.image = cv::Mat(256, 256, CV_8U, cv::Scalar(230));
-  tray.leg = cv::Mat::zeros(tray.image.size(), CV_8U);
-  tray.leg(cv::Rect(30, 90, 226, 80)).setTo(255);
-  tray.image.setTo(160, tray.leg);
-  cv::rectangle(tray.image, cv::Rect(110, 110, 60, 40), cv::Scalar(30), cv::FILLED);  // stem
-  cv::rectangle(tray.image, cv::Rect(104, 95, 6, 70), cv::Scalar(30), cv::FILLED);    // plate
+  const ImplantInLeg tray =
+      trayInLeg(cv::Rect(30, 90, 226, 80), cv::Rect(110, 110, 60, 40), cv::Rect(104, 95, 6, 70));
   const cv::Mat crossed = crossedByRod(tray, cv::Point(0, 137), cv::Point(255, 61));
   const imaging::ImplantBlob cut = largestDark(imaging::findImplantBlobs(crossed));
   expectARegionOf(cut, imaging::findImplantBlobs(tray.image));
@@ -243,6 +239,8 @@ TEST(ImplantBlobs, ARegionJoinedAtANarrowNeckAlsoOffersItsParts) {
   for (const auto& blob : imaging::findImplantBlobs(image, unsplit)) EXPECT_FALSE(blob.neck_part);
 }
 
+// In deep flexion the femoral component and the tray form one region; the search still finds
+// both (chamfer matching of each bone's library on the frame's edges).
 TEST(PoseSearch, FindsBothComponentsInDeepFlexion) {
   sim::TrialSimulatorSettings s;
   s.motion.frames = 10;
