@@ -287,6 +287,14 @@ Mesh Mesh::scaled(double factor) const {
   return out;
 }
 
+Mesh Mesh::mirrored(int axis) const {
+  if (axis < 0 || axis > 2) throw InputError("mesh: mirror axis must be 0, 1 or 2");
+  Mesh out = *this;
+  for (auto& v : out.vertices_) v[axis] = -v[axis];
+  out.flipOrientation();
+  return out;
+}
+
 void Mesh::flipOrientation() {
   for (auto& t : triangles_) std::swap(t[1], t[2]);
 }

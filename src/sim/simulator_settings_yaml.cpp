@@ -38,6 +38,7 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
                "platform_material",
                "seed",
                "start_stamp_s",
+               "side",
                "motion",
                "detector",
                "implants",
@@ -66,6 +67,13 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   r.read("platform_material", &s.platform_material);
   r.read("seed", &s.seed);
   r.read("start_stamp_s", &s.start_stamp_s);
+  std::string side = kinematics::sideName(s.side);
+  r.read("side", &side);
+  try {
+    s.side = kinematics::sideFromName(side);
+  } catch (const InputError& e) {
+    throw InputError("simulator settings '" + path + "'.side: " + e.what());
+  }
 
   const io::YamlSection m = r.child("motion");
   m.allowOnly({"frames", "frame_rate_hz", "start_flexion_deg", "max_flexion_deg",

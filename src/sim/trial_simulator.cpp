@@ -23,6 +23,29 @@ Mesh ellipticCylinderM(double ap_mm, double ml_mm, double y0_mm, double y1_mm) {
   return cylinderY(ap_mm, ml_mm, y0_mm, y1_mm, 64).scaled(1e-3);
 }
 
+// Mirrors through the ISB sagittal plane (mesh Z, medial-lateral).
+constexpr int kMedialLateralAxis = 2;
+
+KneeImplantSet implantsForSide(const KneeImplantSet& right, kinematics::Side side) {
+  if (side == kinematics::Side::kRight) return right;
+  KneeImplantSet left = right;
+  left.femoral_component = right.femoral_component.mirrored(kMedialLateralAxis);
+  left.tibial_tray = right.tibial_tray.mirrored(kMedialLateralAxis);
+  left.tibial_insert = right.tibial_insert.mirrored(kMedialLateralAxis);
+  return left;
+}
+
+// The left knee's pose of a bone whose right-knee pose is `right` (both in the first view's
+// optical frame): the bone mirrored through its sagittal plane and the scene through the
+// plane of the beam and the image's vertical axis (x = 0), so that the joint stays on the
+// beam and is seen from the other side. Two reflections make a rotation.
+Pose leftFromRight(const Pose& right) {
+  const Eigen::Matrix3d across_image = Eigen::Vector3d(-1.0, 1.0, 1.0).asDiagonal();
+  const Eigen::Matrix3d sagittal = Eigen::Vector3d(1.0, 1.0, -1.0).asDiagonal();
+  return geometry::makePose(across_image * right.linear() * sagittal,
+                            across_image * right.translation());
+}
+
 }  // namespace
 
 TrialSimulatorSettings::TrialSimulatorSettings() {
@@ -80,8 +103,9 @@ void TrialSimulatorSettings::validate() const {
 
 TrialSimulator::TrialSimulator(const TrialSimulatorSettings& settings)
     : settings_(settings),
-      implants_(makeKneeImplants(settings.implants, settings.implant_meshes)),
-      contact_(implants_, settings.implants) {
+      right_implants_(makeKneeImplants(settings.implants, settings.implant_meshes)),
+      implants_(implantsForSide(right_implants_, settings.side)),
+      contact_(right_implants_, settings.implants) {
   settings_.detector.pixel_spacing_mm = settings_.pixel_spacing_mm;
   settings_.validate();
   const double focal = settings_.principal_distance_mm / settings_.pixel_spacing_mm;
@@ -199,6 +223,12 @@ SimulatedFrame TrialSimulator::truth(int index) const {
   frame.flexion_deg = knee.flexion_deg;
   frame.tibia = geometry::makePose(rotation, joint - rotation * kJointCentreInTibia);
   frame.femur = frame.tibia * knee.tibia_from_femur;
+  if (settings_.side == kinematics::Side::kLeft) {
+    const Pose fixed_from_camera = views_.front().camera.worldFromCamera();
+    const Pose camera_from_fixed = fixed_from_camera.inverse();
+    frame.tibia = fixed_from_camera * leftFromRight(camera_from_fixed * frame.tibia);
+    frame.femur = fixed_from_camera * leftFromRight(camera_from_fixed * frame.femur);
+  }
   return frame;
 }
 
@@ -261,6 +291,7 @@ io::TrialConfig TrialSimulator::trialConfig(const std::string& model_directory) 
   knee.parent = kFemur;
   knee.child = kTibia;
   knee.type = "knee";
+  knee.side = settings_.side;
   config.joints = {knee};
   return config;
 }

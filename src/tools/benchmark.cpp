@@ -328,7 +328,7 @@ struct Condition {
 // The knee joint between the simulator's femoral component (bone 0) and tibial tray (bone 1):
 // contact of the femoral component with the insert, and optionally a stay-in-contact term.
 registration::JointModel kneeJoint(const geometry::Mesh& femoral_component,
-                                   const geometry::Mesh& insert,
+                                   const geometry::Mesh& insert, kinematics::Side side,
                                    const constraints::ContactSettings& settings,
                                    const constraints::LigamentSettings& ligaments,
                                    const Condition& condition) {
@@ -336,6 +336,7 @@ registration::JointModel kneeJoint(const geometry::Mesh& femoral_component,
   knee.name = "knee";
   knee.parent = 0;
   knee.child = 1;
+  knee.side = side;
   knee.ligaments = ligaments;
   knee.ligaments.enabled = condition.ligaments;
   if (condition.contact) {
@@ -347,16 +348,17 @@ registration::JointModel kneeJoint(const geometry::Mesh& femoral_component,
 
 std::vector<registration::JointModel> kneeJoints(const geometry::Mesh& femoral_component,
                                                  const geometry::Mesh& insert,
+                                                 kinematics::Side side,
                                                  const constraints::ContactSettings& settings,
                                                  const constraints::LigamentSettings& ligaments,
                                                  const Condition& condition) {
   if (!condition.contact && !condition.ligaments) return {};
   std::vector<registration::JointModel> joints = {
-      kneeJoint(femoral_component, insert, settings, ligaments, condition)};
+      kneeJoint(femoral_component, insert, side, settings, ligaments, condition)};
   if (condition.keep_in_contact) {
     Condition contact_only = condition;
     contact_only.ligaments = false;
-    joints.push_back(kneeJoint(femoral_component, insert,
+    joints.push_back(kneeJoint(femoral_component, insert, side,
                                constraints::stayInContactSettings(settings, settings.weight),
                                ligaments, contact_only));
   }
@@ -417,7 +419,7 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
       registrars.push_back(std::make_shared<registration::Registrar>(
           boneModels({&implants.femoral_component, &implants.tibial_tray}, {"femur", "tibia"}),
           settings,
-          kneeJoints(implants.femoral_component, implants.tibial_insert, contact_settings,
+          kneeJoints(implants.femoral_component, implants.tibial_insert, s.side, contact_settings,
                      ligament_settings, condition)));
     }
     std::vector<std::unique_ptr<registration::PoseSearch>> searches;
@@ -491,9 +493,9 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
         if (figures.max_depth_m > 0.5e-3) ++tally.deep_penetrations;
         const bool success = tally.succeeded(errors);
         const kinematics::KneeCoordinates knee =
-            kinematics::kneeCoordinates(result.poses[0], result.poses[1], kinematics::Side::kRight);
+            kinematics::kneeCoordinates(result.poses[0], result.poses[1], s.side);
         const kinematics::KneeCoordinates true_knee =
-            kinematics::kneeCoordinates(truth[0], truth[1], kinematics::Side::kRight);
+            kinematics::kneeCoordinates(truth[0], truth[1], s.side);
         if (success) tally.addJoint(knee, true_knee);
         tally.addSimilarity(imaging::projectionSimilarity(map, meshes, result.poses).total(),
                             similarity_truth, success);
@@ -544,7 +546,9 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
             ? "crude starts (femur +-3 mm in-plane, +-20 mm out-of-plane, +-5 deg; tibia +-3 mm, "
               "+-50 mm, +-5 deg in-plane, +-10 deg out-of-plane), success within 1.5 mm, 3/5 deg"
             : "start +-2 mm in-plane, +-3 mm out-of-plane, +-3 deg";
-    const std::string implants = base.implant_meshes.any() ? " (implant models from files)" : "";
+    const std::string implants =
+        std::string(base.side == kinematics::Side::kLeft ? " (left knee)" : "") +
+        (base.implant_meshes.any() ? " (implant models from files)" : "");
     tallies[c].print("simulated " + std::string(views == 1 ? "single-plane" : "bi-plane") +
                      " total knee" + implants + ", " + std::to_string(trials) + " trial(s) x " +
                      std::to_string(frames) + " frame(s), " + trial_set + " images, " +

@@ -80,6 +80,10 @@ class Mesh {
 
   Mesh transformed(const Pose& pose) const;
   Mesh scaled(double factor) const;
+  // The mirror image across the plane through the origin normal to coordinate `axis` (0, 1, 2),
+  // its windings reversed so that normals still point outward: with axis 2 (the ISB frame's
+  // medial-lateral Z), a right knee's component as the left one's.
+  Mesh mirrored(int axis) const;
   // Reverses every triangle's winding (turns normals inside out).
   void flipOrientation();
   // Adds another mesh's triangles as a separate component.

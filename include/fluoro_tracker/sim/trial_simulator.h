@@ -12,6 +12,7 @@
 #include "fluoro_tracker/imaging/detector_model.h"
 #include "fluoro_tracker/io/fluoro_view.h"
 #include "fluoro_tracker/io/trial_config.h"
+#include "fluoro_tracker/kinematics/knee_coordinates.h"
 #include "fluoro_tracker/sim/implant_models.h"
 #include "fluoro_tracker/sim/knee_motion.h"
 
@@ -50,6 +51,10 @@ struct TrialSimulatorSettings {
   double platform_top_below_joint_mm = 70.0;
   double platform_width_mm = 0.0;
   std::string platform_material = "polyethylene";
+  // The knee's side. A left knee is the right one's mirror image (components mirrored through
+  // their sagittal plane, the same clinical motion), seen from the other side: with the beam
+  // still along medial-lateral, anterior points to the image right instead of the left.
+  kinematics::Side side = kinematics::Side::kRight;
   KneeMotionSettings motion;
   imaging::DetectorSettings detector;
   KneeImplantDimensions implants;
@@ -116,6 +121,9 @@ class TrialSimulator {
   };
 
   TrialSimulatorSettings settings_;
+  // The motion and the contact that settles it are modelled on a right knee; a left trial
+  // renders and hands out the mirror images (implants_).
+  KneeImplantSet right_implants_;
   KneeImplantSet implants_;
   KneeContactSolver contact_;
   std::vector<AnatomyPart> anatomy_;

@@ -70,6 +70,22 @@ TEST(Mesh, TopologyFindsHolesAndMisorientation) {
   EXPECT_FALSE(misoriented.topology().isClosed());
 }
 
+TEST(Mesh, MirroredStaysOutwardAndReflectsOneAxis) {
+  // A box off the origin, so that the reflection moves it.
+  const Mesh box = sim::box(Eigen::Vector3d(0.1, 0.2, 0.3))
+                       .transformed(geometry::makePose(Eigen::Matrix3d::Identity(),
+                                                       Eigen::Vector3d(0.5, 0.6, 0.7)));
+  for (int axis = 0; axis < 3; ++axis) {
+    const Mesh mirror = box.mirrored(axis);
+    EXPECT_TRUE(mirror.topology().isClosed()) << axis;
+    EXPECT_NEAR(mirror.volume(), box.volume(), 1e-12) << axis;  // > 0: still outward
+    Eigen::Vector3d expected = box.volumeCentroid();
+    expected[axis] = -expected[axis];
+    EXPECT_TRUE(mirror.volumeCentroid().isApprox(expected, 1e-12)) << axis;
+  }
+  EXPECT_THROW_WITH(box.mirrored(3), "mirror axis");
+}
+
 TEST(Mesh, RejectsOutOfRangeIndices) {
   EXPECT_THROW_WITH(Mesh({Eigen::Vector3d::Zero()}, {Mesh::Triangle(0, 1, 2)}), "vertex index");
 }

@@ -289,6 +289,39 @@ TEST(PoseSearch, FindsBothComponentsWithNoGuess) {
   }
 }
 
+// A left knee (the right one mirrored, seen with anterior to the image right) is found like a
+// right one, and the registration reports its joint in the left knee's clinical signs (with
+// the right knee's, adduction and internal rotation would come out negated).
+TEST(PoseSearch, FindsALeftKneeWithNoGuess) {
+  sim::TrialSimulatorSettings s;
+  s.side = kinematics::Side::kLeft;
+  s.motion.frames = 10;
+  s.motion.max_flexion_deg = 90.0;
+  const sim::TrialSimulator sim(s);
+  const registration::PoseSearch search(simulatedKneeRegistrar(sim));
+  std::mt19937_64 rng(5);
+  for (int f : {0, 3}) {
+    const auto frame = sim.render(f, &rng);
+    const auto found = search.search({{frame.images[0], sim.views()[0].camera}});
+    const std::string label = "left knee, frame " + std::to_string(f);
+    expectBothBonesWithinCriterion(found.registration, frame, sim.views()[0].camera, label);
+    ASSERT_EQ(found.registration.joints.size(), 1u);
+    const auto& knee = found.registration.joints[0].coordinates;
+    const auto truth =
+        kinematics::kneeCoordinates(frame.femur, frame.tibia, kinematics::Side::kLeft);
+    EXPECT_NEAR(geometry::radToDeg(knee.flexion_rad - truth.flexion_rad), 0.0, 2.0) << label;
+    EXPECT_NEAR(geometry::radToDeg(knee.adduction_rad - truth.adduction_rad), 0.0, 2.0) << label;
+    EXPECT_NEAR(geometry::radToDeg(knee.internal_rotation_rad - truth.internal_rotation_rad), 0.0,
+                4.0)
+        << label;
+  }
+  // Frame 3's tibia turns internally by 6 deg: the check above tells the signs apart.
+  EXPECT_GT(geometry::radToDeg(kinematics::kneeCoordinates(sim.truth(3).femur, sim.truth(3).tibia,
+                                                           kinematics::Side::kLeft)
+                                   .internal_rotation_rad),
+            5.0);
+}
+
 // Bright implants (an inverted display) in deep flexion: the femoral component's box rims
 // against bone are much fainter than its outer rim against soft tissue. At the default edge
 // threshold the search's maps lose those rims and the component's refinement slides along the

@@ -19,8 +19,9 @@ inline std::vector<registration::BoneModel> simulatedKneeBones(const sim::TrialS
 }
 
 // A registrar for a simulated trial's knee: the femoral component (bone 0) and tibial tray
-// (bone 1), joined by the knee with contact of the femoral component on the insert and the
-// default ligament bounds (what the automatic search needs to place one bone from the other).
+// (bone 1), joined by the knee (on the trial's side) with contact of the femoral component on the
+// insert and the default ligament bounds (what the automatic search needs to place one bone from
+// the other).
 inline std::shared_ptr<const registration::Registrar> simulatedKneeRegistrar(
     const sim::TrialSimulator& sim,
     const registration::RegistrationSettings& settings = registration::RegistrationSettings()) {
@@ -28,6 +29,7 @@ inline std::shared_ptr<const registration::Registrar> simulatedKneeRegistrar(
   knee.name = "knee";
   knee.parent = 0;
   knee.child = 1;
+  knee.side = sim.settings().side;
   knee.contact = std::make_shared<constraints::ArticularContact>(sim.implants().femoral_component,
                                                                  sim.implants().tibial_insert,
                                                                  constraints::ContactSettings());

@@ -137,6 +137,58 @@ TEST(TrialSimulator, ShippedConfigLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(s.platform_width_mm, d.platform_width_mm);
   EXPECT_DOUBLE_EQ(s.platform_top_below_joint_mm, d.platform_top_below_joint_mm);
   EXPECT_EQ(s.platform_material, d.platform_material);
+  EXPECT_EQ(s.side, d.side);
+}
+
+// A left knee is the right one mirrored: the same clinical knee coordinates frame by frame,
+// components mirrored through their sagittal plane, the frame nearly a left-right flip of the
+// right knee's (perspective makes it not exact), and the trial YAML saying so.
+TEST(TrialSimulator, LeftKneeMirrorsTheRightOne) {
+  sim::TrialSimulatorSettings right_settings = smallTrial(1);
+  right_settings.motion.max_flexion_deg = 90.0;
+  sim::TrialSimulatorSettings left_settings = right_settings;
+  left_settings.side = kinematics::Side::kLeft;
+  const sim::TrialSimulator right(right_settings);
+  const sim::TrialSimulator left(left_settings);
+  EXPECT_NEAR(left.implants().femoral_component.volume(),
+              right.implants().femoral_component.volume(), 1e-12);
+  const double right_z = right.implants().femoral_component.volumeCentroid().z();
+  const double left_z = left.implants().femoral_component.volumeCentroid().z();
+  EXPECT_GT(std::abs(right_z), 1e-4);  // the smaller lateral condyle moves the centroid
+  EXPECT_NEAR(left_z, -right_z, 1e-12);
+  for (int i = 0; i < left.frameCount(); ++i) {
+    const sim::SimulatedFrame l = left.truth(i);
+    const sim::SimulatedFrame r = right.truth(i);
+    const auto kl = kinematics::kneeCoordinates(l.femur, l.tibia, kinematics::Side::kLeft);
+    const auto kr = kinematics::kneeCoordinates(r.femur, r.tibia, kinematics::Side::kRight);
+    EXPECT_NEAR(kl.flexion_rad, kr.flexion_rad, 1e-9) << i;
+    EXPECT_NEAR(kl.adduction_rad, kr.adduction_rad, 1e-9) << i;
+    EXPECT_NEAR(kl.internal_rotation_rad, kr.internal_rotation_rad, 1e-9) << i;
+    EXPECT_NEAR(kl.z_m, kr.z_m, 1e-9) << i;
+    // Anterior (bone X) points the other way across the image; superior (Y) does not.
+    EXPECT_NEAR(l.tibia.linear().col(0).x(), -r.tibia.linear().col(0).x(), 1e-9) << i;
+    EXPECT_NEAR(l.tibia.linear().col(1).y(), r.tibia.linear().col(1).y(), 1e-9) << i;
+  }
+  // The rendered frames: the left one is close to the right one flipped about the image's
+  // vertical axis, far from the right one as it is.
+  const cv::Mat l = left.lineIntegral(3, 0);
+  const cv::Mat r = right.lineIntegral(3, 0);
+  cv::Mat flipped;
+  cv::flip(r, flipped, 1);
+  const double mirror_difference = cv::norm(l, flipped, cv::NORM_L1);
+  EXPECT_LT(mirror_difference, 0.2 * cv::norm(l, r, cv::NORM_L1));
+
+  TempDir dir;
+  left.writeModels(dir.file("models"));
+  io::saveTrialConfig(dir.file("trial.yaml"), left.trialConfig(dir.file("models")));
+  const io::TrialConfig config = io::loadTrialConfig(dir.file("trial.yaml"));
+  ASSERT_EQ(config.joints.size(), 1u);
+  EXPECT_EQ(config.joints[0].side, kinematics::Side::kLeft);
+
+  test_support::writeText(dir.file("side.yaml"), "side: left\n");
+  EXPECT_EQ(sim::loadSimulatorSettings(dir.file("side.yaml")).side, kinematics::Side::kLeft);
+  test_support::writeText(dir.file("bad_side.yaml"), "side: up\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("bad_side.yaml")), "side 'up'");
 }
 
 // Regression: at deep flexion the insert's dished top is seen edge-on and its centre fan folds
