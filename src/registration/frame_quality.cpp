@@ -89,6 +89,9 @@ void QualitySettings::validate() const {
         "registration quality: relative_inlier_window must be >= 1 and "
         "relative_inlier_min_frames in [1, relative_inlier_window]");
   }
+  if (relative_inlier_trend_frames != 0 && relative_inlier_trend_frames < 3) {
+    throw InputError("registration quality: relative_inlier_trend_frames must be 0 (off) or >= 3");
+  }
 }
 
 double envelopeViolation(const constraints::LigamentSettings& ligaments,

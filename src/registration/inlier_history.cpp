@@ -13,13 +13,39 @@ InlierHistory::InlierHistory(const QualitySettings& settings)
     : drop_(settings.relative_inlier_drop),
       spread_(settings.relative_inlier_spread),
       window_(static_cast<std::size_t>(std::max(settings.relative_inlier_window, 1))),
-      min_frames_(static_cast<std::size_t>(std::max(settings.relative_inlier_min_frames, 1))) {}
+      min_frames_(static_cast<std::size_t>(std::max(settings.relative_inlier_min_frames, 1))),
+      trend_frames_(static_cast<std::size_t>(std::max(settings.relative_inlier_trend_frames, 0))) {}
 
 double InlierHistory::median(std::size_t bone) const {
   if (bone >= recent_.size() || recent_[bone].empty()) {
     return std::numeric_limits<double>::quiet_NaN();
   }
   return fluoro_tracker::median(std::vector<double>(recent_[bone].begin(), recent_[bone].end()));
+}
+
+double InlierHistory::reference(std::size_t bone) const {
+  if (trend_frames_ == 0 || bone >= recent_.size() || recent_[bone].size() < trend_frames_) {
+    return median(bone);
+  }
+  const std::vector<double> last(recent_[bone].end() - static_cast<std::ptrdiff_t>(trend_frames_),
+                                 recent_[bone].end());
+  // Theil-Sen: the median of the pairwise slopes, then the median intercept; a frame or two
+  // off the line hardly moves either.
+  std::vector<double> slopes;
+  for (std::size_t i = 0; i < last.size(); ++i) {
+    for (std::size_t j = i + 1; j < last.size(); ++j) {
+      slopes.push_back((last[j] - last[i]) / static_cast<double>(j - i));
+    }
+  }
+  const double slope = fluoro_tracker::median(std::move(slopes));
+  std::vector<double> intercepts;
+  for (std::size_t i = 0; i < last.size(); ++i) {
+    intercepts.push_back(last[i] - slope * static_cast<double>(i));
+  }
+  const double next =
+      fluoro_tracker::median(std::move(intercepts)) + slope * static_cast<double>(last.size());
+  // Rising fractions promise nothing: never more than the best of those frames.
+  return std::min(next, *std::max_element(last.begin(), last.end()));
 }
 
 double InlierHistory::allowedDrop(std::size_t bone) const {
@@ -42,8 +68,9 @@ void InlierHistory::classify(const std::vector<BoneQuality>& quality,
     const double fraction = quality[b].contour_inlier_fraction;
     std::string& bone_status = (*status)[b];
     if (drop_ > 0.0 && bone_status == "ok" && recent_[b].size() >= min_frames_) {
-      const double centre = median(b);
-      if (fraction < centre - allowedDropAround(b, centre)) bone_status = "suspect";
+      // The allowance comes from the scatter about the window's median; the reference may
+      // follow a trend.
+      if (fraction < reference(b) - allowedDrop(b)) bone_status = "suspect";
     }
     if (bone_status == "lost") continue;
     recent_[b].push_back(fraction);

@@ -852,6 +852,11 @@ int main(int argc, char** argv) {
       po::value(&settings.quality.relative_inlier_spread)
           ->default_value(settings.quality.relative_inlier_spread),
       "... or this many robust standard deviations of those frames' fractions, if more")(
+      "relative-inlier-trend-frames",
+      po::value(&settings.quality.relative_inlier_trend_frames)
+          ->default_value(settings.quality.relative_inlier_trend_frames),
+      "... and once there are this many, below the robust line through the last this many "
+      "instead of the median (0: the median only)")(
       "quality-csv", po::value(&quality_csv_path),
       "write every registration's quality figures, status and errors (x, y in-plane and z along "
       "the beam in mm; rotations about the bone's axes in deg) and the knee's angles (result and "

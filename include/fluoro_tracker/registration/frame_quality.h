@@ -72,6 +72,12 @@ struct QualitySettings {
   double relative_inlier_spread = 3.0;
   int relative_inlier_window = 20;
   int relative_inlier_min_frames = 3;
+  // Where the bone has at least this many frames, the reference is not the window's median but
+  // the robust (Theil-Sen) line through the fractions of its last this many frames, carried on
+  // to this frame and capped at their highest: a fraction that drifts with the pose (a tray
+  // fading into the soft tissue of thigh and calf in deep flexion) is followed, a sudden drop
+  // is not. 0, or more than relative_inlier_window: the median alone.
+  int relative_inlier_trend_frames = 8;
 
   void validate() const;  // throws InputError naming the field
 };

@@ -18,9 +18,13 @@ namespace registration {
 // the inlier fractions of the bone's recent frames and marks a bone suspect whose fraction lies
 // more than QualitySettings::relative_inlier_drop below their median (or, when they scatter
 // more, relative_inlier_spread robust standard deviations below it: under a moving rod a
-// bone's good frames differ by more than the drop). Every frame that is not
-// lost joins the history, so a lasting change (an occluder that stays) becomes the new normal
-// within half a window, while a single frame hardly moves the median.
+// bone's good frames differ by more than the drop). Once the bone has
+// relative_inlier_trend_frames frames, the reference is instead the robust line through its
+// last few fractions, carried on to the new frame: a bone's fraction at its true pose also
+// drifts with the pose (the tray's outline fades where thigh and calf overlap in deep
+// flexion), and against the median such a drift was flagged frame after frame. Every frame
+// that is not lost joins the history, so a lasting change (an occluder that stays) becomes the
+// new normal within a few frames, while a single frame hardly moves the reference.
 // Used by the Tracker (frames in order) and by the benchmark (each trial's frames in order).
 class InlierHistory {
  public:
@@ -38,6 +42,11 @@ class InlierHistory {
   // How far below the median a bone's fraction may lie before it is suspect.
   double allowedDrop(std::size_t bone) const;
 
+  // What a bone's next fraction is compared with: the trend line's value for the next frame
+  // (capped at the highest of the frames it runs through) once there are trend_frames_ of
+  // them, the median before (NaN without any).
+  double reference(std::size_t bone) const;
+
  private:
   double allowedDropAround(std::size_t bone, double centre) const;
 
@@ -45,6 +54,7 @@ class InlierHistory {
   double spread_;
   std::size_t window_;
   std::size_t min_frames_;
+  std::size_t trend_frames_;                // 0: median only
   std::vector<std::deque<double>> recent_;  // per bone, oldest first
 };
 

@@ -361,7 +361,7 @@ registration:
                  start_deviation_excess: 2.5}
   depth_retry: {enabled: false, shifts_mm: [-10, 10, -25]}
   quality: {relative_inlier_drop: 0.2, relative_inlier_spread: 2.5, relative_inlier_window: 10,
-            relative_inlier_min_frames: 5}
+            relative_inlier_min_frames: 5, relative_inlier_trend_frames: 6}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_EQ(c.registration.parameterisation,
@@ -388,6 +388,7 @@ registration:
   EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_spread, 2.5);
   EXPECT_EQ(c.registration.quality.relative_inlier_window, 10);
   EXPECT_EQ(c.registration.quality.relative_inlier_min_frames, 5);
+  EXPECT_EQ(c.registration.quality.relative_inlier_trend_frames, 6);
   EXPECT_DOUBLE_EQ(c.registration.quality.suspect_inlier_fraction,
                    registration::QualitySettings().suspect_inlier_fraction);
   EXPECT_EQ(c.registration.scales, (std::vector<double>{0.25, 1.0}));
@@ -448,6 +449,8 @@ registration:
   expectRegistrationRejected(
       "{quality: {relative_inlier_window: 4, relative_inlier_min_frames: 5}}",
       "relative_inlier_min_frames in [1, relative_inlier_window]");
+  expectRegistrationRejected("{quality: {relative_inlier_trend_frames: 2}}",
+                             "relative_inlier_trend_frames must be 0 (off) or >= 3");
 }
 
 TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
@@ -496,6 +499,8 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.registration.quality.relative_inlier_window, d.quality.relative_inlier_window);
   EXPECT_EQ(c.registration.quality.relative_inlier_min_frames,
             d.quality.relative_inlier_min_frames);
+  EXPECT_EQ(c.registration.quality.relative_inlier_trend_frames,
+            d.quality.relative_inlier_trend_frames);
   ASSERT_EQ(c.joints.size(), 1u);
   const constraints::ContactSettings contact;
   EXPECT_TRUE(c.joints[0].contact.enabled);

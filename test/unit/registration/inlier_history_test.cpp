@@ -87,6 +87,11 @@ TEST(InlierHistory, SettingsAreValidated) {
   s = QualitySettings();
   s.relative_inlier_min_frames = s.relative_inlier_window + 1;
   EXPECT_THROW(s.validate(), InputError);
+  s = QualitySettings();
+  s.relative_inlier_trend_frames = 2;
+  EXPECT_THROW(s.validate(), InputError);
+  s.relative_inlier_trend_frames = 0;
+  EXPECT_NO_THROW(s.validate());
   EXPECT_NO_THROW(QualitySettings().validate());
 }
 
@@ -102,4 +107,33 @@ TEST(InlierHistory, AllowsTheDropOfABoneWhoseFramesScatter) {
             (std::vector<std::string>{"ok", "suspect"}));
   EXPECT_EQ(classify(&history, {0.6, 0.99}, {"ok", "ok"}),
             (std::vector<std::string>{"suspect", "ok"}));
+}
+
+// At its true pose a bone's fraction also drifts with the pose: the tray's outline fades into
+// the soft tissue of thigh and calf as the knee flexes deeply. Against the median of its frames
+// that drift was flagged frame after frame; against the trend of its last frames it is not,
+// while a sudden drop on the way down still is.
+TEST(InlierHistory, FollowsAFractionThatDriftsWithThePose) {
+  QualitySettings median_only;
+  median_only.relative_inlier_trend_frames = 0;
+  InlierHistory trend{QualitySettings()};  // the last 8 frames
+  InlierHistory median(median_only);
+  std::vector<double> drift;
+  for (int k = 0; k < 10; ++k) drift.push_back(1.0);
+  for (int k = 1; k <= 8; ++k) drift.push_back(1.0 - 0.02 * k);  // down to 0.84
+  int flagged_by_trend = 0;
+  int flagged_by_median = 0;
+  for (double f : drift) {
+    flagged_by_trend += classify(&trend, {f}, {"ok"})[0] == "suspect";
+    flagged_by_median += classify(&median, {f}, {"ok"})[0] == "suspect";
+  }
+  EXPECT_EQ(flagged_by_trend, 0);
+  EXPECT_GE(flagged_by_median, 2);
+  // The trend carries on to about 0.82: 0.7 is a drop, 0.8 is not.
+  EXPECT_NEAR(trend.reference(0), 0.82, 1e-9);
+  EXPECT_EQ(classify(&trend, {0.7}, {"ok"}), std::vector<std::string>{"suspect"});
+  InlierHistory rising{QualitySettings()};
+  for (int k = 0; k < 8; ++k) classify(&rising, {0.6 + 0.05 * k}, {"ok"});
+  // Capped at the best frame (0.95), not carried on to 1.0.
+  EXPECT_NEAR(rising.reference(0), 0.95, 1e-9);
 }
