@@ -13,6 +13,7 @@
 
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/ros/conversions.h"
+#include "fluoro_tracker/ros/view_rectifier.h"
 
 namespace fluoro_tracker {
 namespace ros_bridge {
@@ -85,7 +86,9 @@ BagFrameReader::~BagFrameReader() = default;
 
 void BagFrameReader::read(const FrameCallback& consume, const SkipCallback& skipped) {
   const std::size_t views = image_topics_.size();
-  std::vector<std::optional<geometry::XrayCamera>> info(views);
+  // Per view, the camera of its latest camera_info (and the removal of its lens distortion).
+  std::vector<std::optional<ViewRectifier>> info(views);
+  std::vector<std::string> info_problem(views);  // why the latest camera_info was rejected
   struct Pending {
     int index = 0;
     std::vector<cv::Mat> images;
@@ -124,9 +127,10 @@ void BagFrameReader::read(const FrameCallback& consume, const SkipCallback& skip
     Pending& p = it->second;
     try {
       if (!info[v]) {
-        throw InputError("no valid camera_info on '" + impl_->info_topics[v] + "' for this image");
+        throw InputError("no valid camera_info on '" + impl_->info_topics[v] + "' for this image" +
+                         (info_problem[v].empty() ? "" : " (" + info_problem[v] + ")"));
       }
-      geometry::XrayCamera camera = *info[v];
+      geometry::XrayCamera camera = info[v]->camera();
       if (static_cast<int>(msg.width) != camera.width() ||
           static_cast<int>(msg.height) != camera.height()) {
         throw InputError("image on '" + image_topics_[v] + "' is " + std::to_string(msg.width) +
@@ -145,7 +149,7 @@ void BagFrameReader::read(const FrameCallback& consume, const SkipCallback& skip
                            fixed_frame_ + "' by /tf_static in the bag: " + e.what());
         }
       }
-      p.images[v] = fromImageMessage(msg);
+      p.images[v] = info[v]->rectify(fromImageMessage(msg));
       p.cameras[v] = camera;
       ++p.filled;
     } catch (const InputError& e) {
@@ -172,9 +176,12 @@ void BagFrameReader::read(const FrameCallback& consume, const SkipCallback& skip
         const auto msg = m.instantiate<sensor_msgs::CameraInfo>();
         if (!msg) continue;
         try {
-          info[v] = fromCameraInfo(*msg);
-        } catch (const InputError&) {
+          // The same calibration with every frame: its maps are built once.
+          if (!info[v] || !info[v]->sameCalibration(*msg)) info[v].emplace(*msg);
+          info_problem[v].clear();
+        } catch (const InputError& e) {
           info[v].reset();  // reported with the next image of this view
+          info_problem[v] = e.what();
         }
         if (info[v]) {
           for (const auto& image : waiting[v]) handleImage(v, *image);

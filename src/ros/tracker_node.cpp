@@ -252,15 +252,16 @@ void TrackerNode::process(const PendingFrame& frame) {
   last_stamp_ = std::max(last_stamp_, frame.header.stamp);
   std::vector<registration::ViewImage> views;
   std::string fixed_frame;
+  if (rectifiers_.size() < frame.images.size()) rectifiers_.resize(frame.images.size());
   try {
     for (std::size_t v = 0; v < frame.images.size(); ++v) {
-      geometry::XrayCamera camera = fromCameraInfo(frame.infos[v]);
-      const cv::Mat& image = frame.images[v];
-      if (image.cols != camera.width() || image.rows != camera.height()) {
-        throw InputError("the image of " + camera.frameId() + " is " + std::to_string(image.cols) +
-                         "x" + std::to_string(image.rows) + " but its camera_info says " +
-                         std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
+      // The same calibration comes with every frame: its distortion maps are built once.
+      std::optional<ViewRectifier>& rectifier = rectifiers_[v];
+      if (!rectifier || !rectifier->sameCalibration(frame.infos[v])) {
+        rectifier.emplace(frame.infos[v]);
       }
+      geometry::XrayCamera camera = rectifier->camera();
+      const cv::Mat image = rectifier->rectify(frame.images[v]);
       if (v == 0)
         fixed_frame = config_.fixed_frame.empty() ? camera.frameId() : config_.fixed_frame;
       if (fixed_frame != camera.frameId()) {

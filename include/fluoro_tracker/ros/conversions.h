@@ -18,8 +18,9 @@
 namespace fluoro_tracker {
 namespace ros_bridge {
 
-// CameraInfo for a view: K from the camera, P = [K | 0], identity R, no distortion (frames are
-// expected distortion-corrected), header frame_id = the camera's optical frame.
+// CameraInfo for a view: K from the camera, P = [K | 0], identity R, no distortion (the frames
+// it goes with are the pinhole's; see ViewRectifier for those that are not), header frame_id =
+// the camera's optical frame.
 sensor_msgs::CameraInfo toCameraInfo(const geometry::XrayCamera& camera, const ros::Time& stamp);
 // Throws InputError naming the frame for K[0] == 0, a zero size or a non-finite K.
 geometry::XrayCamera fromCameraInfo(const sensor_msgs::CameraInfo& info);

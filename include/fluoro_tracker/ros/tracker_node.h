@@ -31,6 +31,7 @@
 #include "fluoro_tracker/io/trial_config.h"
 #include "fluoro_tracker/io/trial_models.h"
 #include "fluoro_tracker/registration/tracker.h"
+#include "fluoro_tracker/ros/view_rectifier.h"
 
 namespace fluoro_tracker {
 namespace ros_bridge {
@@ -97,6 +98,10 @@ class TrackerNode {
   io::TrialModels models_;
   std::shared_ptr<const registration::Registrar> registrar_;
   std::vector<geometry::Pose> initial_poses_;
+
+  // Per view, the camera of the latest camera_info and the removal of its lens distortion
+  // (the worker's alone).
+  std::vector<std::optional<ViewRectifier>> rectifiers_;
 
   std::mutex tracker_mutex_;  // the tracker is shared by the worker and the services
   std::unique_ptr<registration::Tracker> tracker_;
