@@ -14,7 +14,8 @@ namespace ros_bridge {
 
 namespace enc = sensor_msgs::image_encodings;
 
-sensor_msgs::CameraInfo toCameraInfo(const geometry::XrayCamera& camera, const ros::Time& stamp) {
+sensor_msgs::CameraInfo toCameraInfo(const geometry::XrayCamera& camera, const ros::Time& stamp,
+                                     const imaging::LensDistortion& distortion) {
   sensor_msgs::CameraInfo info;
   info.header.stamp = stamp;
   info.header.frame_id = camera.frameId();
@@ -22,11 +23,19 @@ sensor_msgs::CameraInfo toCameraInfo(const geometry::XrayCamera& camera, const r
   info.height = static_cast<std::uint32_t>(camera.height());
   info.distortion_model = "plumb_bob";
   info.D = {0.0, 0.0, 0.0, 0.0, 0.0};
+  if (distortion.any()) {
+    info.distortion_model = distortion.model;
+    info.D = distortion.coefficients;
+  }
   const auto k = camera.cameraInfoK();
   std::copy(k.begin(), k.end(), info.K.begin());
   info.R = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
   info.P = {k[0], 0.0, k[2], 0.0, 0.0, k[4], k[5], 0.0, 0.0, 0.0, 1.0, 0.0};
   return info;
+}
+
+imaging::LensDistortion lensDistortion(const sensor_msgs::CameraInfo& info) {
+  return {info.distortion_model, info.D};
 }
 
 geometry::XrayCamera fromCameraInfo(const sensor_msgs::CameraInfo& info) {

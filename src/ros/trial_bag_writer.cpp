@@ -50,7 +50,7 @@ void TrialBagWriter::write(int index, double stamp_s, const std::vector<cv::Mat>
   }
   const ros::Time stamp(stamp_s);
   for (std::size_t v = 0; v < views_.size(); ++v) {
-    sensor_msgs::CameraInfo info = toCameraInfo(views_[v].camera, stamp);
+    sensor_msgs::CameraInfo info = toCameraInfo(views_[v].camera, stamp, views_[v].distortion);
     info.header.seq = sequence_;
     sensor_msgs::Image image;
     try {

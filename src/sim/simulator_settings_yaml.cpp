@@ -39,6 +39,7 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
                "seed",
                "start_stamp_s",
                "side",
+               "lens_distortion",
                "motion",
                "detector",
                "implants",
@@ -74,6 +75,11 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   } catch (const InputError& e) {
     throw InputError("simulator settings '" + path + "'.side: " + e.what());
   }
+
+  const io::YamlSection lens = r.child("lens_distortion");
+  lens.allowOnly({"model", "coefficients"});
+  lens.read("model", &s.lens_distortion.model);
+  lens.read("coefficients", &s.lens_distortion.coefficients);
 
   const io::YamlSection m = r.child("motion");
   m.allowOnly({"frames", "frame_rate_hz", "start_flexion_deg", "max_flexion_deg",

@@ -97,6 +97,7 @@ void TrialSimulatorSettings::validate() const {
                        "' is not a finite rigid transform");
     }
   }
+  lens_distortion.validate("simulator: lens_distortion");
   motion.validate();
   detector.validate();
 }
@@ -115,8 +116,10 @@ TrialSimulator::TrialSimulator(const TrialSimulatorSettings& settings)
   fixed_frame_ = io::fixedFrameId(view_count);
   if (view_count == 1) {
     const std::string name = io::fluoroViewName(0, 1);
-    views_.push_back({name, geometry::XrayCamera(settings_.image_width, settings_.image_height,
-                                                 focal, focal, cx, cy, io::opticalFrameId(name))});
+    views_.push_back({name,
+                      geometry::XrayCamera(settings_.image_width, settings_.image_height, focal,
+                                           focal, cx, cy, io::opticalFrameId(name)),
+                      settings_.lens_distortion});
   } else {
     // The second beam turns about the vertical (image y) axis through the joint centre.
     const Eigen::Vector3d pivot(0.0, 0.0, 1e-3 * settings_.source_to_joint_mm);
@@ -129,7 +132,7 @@ TrialSimulator::TrialSimulator(const TrialSimulatorSettings& settings)
       geometry::XrayCamera camera(settings_.image_width, settings_.image_height, focal, focal, cx,
                                   cy, io::opticalFrameId(name));
       camera.setWorldFromCamera(v == 0 ? Pose::Identity() : turn);
-      views_.push_back({name, camera});
+      views_.push_back({name, camera, settings_.lens_distortion});
     }
   }
 
@@ -259,8 +262,12 @@ cv::Mat TrialSimulator::lineIntegral(int index, int view) const {
 SimulatedFrame TrialSimulator::render(int index, std::mt19937_64* rng) const {
   SimulatedFrame frame = truth(index);
   for (int v = 0; v < static_cast<int>(views_.size()); ++v) {
-    frame.images.push_back(
-        imaging::formRadiograph(lineIntegral(index, v), settings_.detector, rng));
+    cv::Mat image = imaging::formRadiograph(lineIntegral(index, v), settings_.detector, rng);
+    const SimulatedView& view = views_[v];
+    if (view.distortion.any()) {
+      image = imaging::applyLensDistortion(image, view.camera, view.distortion);
+    }
+    frame.images.push_back(std::move(image));
   }
   return frame;
 }

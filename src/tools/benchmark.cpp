@@ -18,6 +18,7 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <random>
 #include <sstream>
 
@@ -28,6 +29,7 @@
 #include "command_line.h"
 #include "fluoro_tracker/constraints/articular_contact.h"
 #include "fluoro_tracker/imaging/contour_overlay.h"
+#include "fluoro_tracker/imaging/lens_distortion.h"
 #include "fluoro_tracker/imaging/projection_similarity.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/jointtrack_calibration.h"
@@ -437,11 +439,22 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
                                                           implants.tibial_insert, contact_settings);
     std::vector<registration::ViewImage> view_images;
     for (const auto& v : simulator.views()) view_images.push_back({cv::Mat(), v.camera});
+    // Frames with an image intensifier's distortion are corrected as the node corrects them.
+    std::vector<std::optional<imaging::UndistortionMaps>> undistortion(view_images.size());
+    for (std::size_t v = 0; v < view_images.size(); ++v) {
+      const auto& view = simulator.views()[v];
+      if (view.distortion.any())
+        undistortion[v] = imaging::undistortionMaps(view.camera, view.distortion);
+    }
     const Pose camera_from_fixed = simulator.views()[0].camera.worldFromCamera().inverse();
     const imaging::EdgeMapSettings edge_settings = settings.edges;
     for (int f = 0; f < frames; ++f) {
-      const sim::SimulatedFrame frame = simulator.render(f, &rng);
-      for (std::size_t v = 0; v < view_images.size(); ++v) view_images[v].image = frame.images[v];
+      sim::SimulatedFrame frame = simulator.render(f, &rng);
+      for (std::size_t v = 0; v < view_images.size(); ++v) {
+        if (undistortion[v])
+          frame.images[v] = imaging::removeLensDistortion(frame.images[v], *undistortion[v]);
+        view_images[v].image = frame.images[v];
+      }
       const std::vector<Pose> truth = {frame.femur, frame.tibia};
       std::vector<Pose> start;
       for (std::size_t b = 0; b < truth.size(); ++b) {

@@ -145,7 +145,7 @@ int main(int argc, char** argv) {
                          image_dirs[0] + "') " + std::to_string(inputs[0].files.size()) +
                          ": every view needs one image per frame");
       }
-      views.push_back({name, camera});
+      views.push_back({name, camera, {}});  // frames corrected already, or a pinhole
     }
     const int frames = static_cast<int>(inputs[0].files.size());
     const auto stampOf = [&](int frame) { return start_stamp_s + frame / rate_hz; };

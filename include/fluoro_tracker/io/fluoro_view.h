@@ -4,6 +4,7 @@
 #include <string>
 
 #include "fluoro_tracker/geometry/xray_camera.h"
+#include "fluoro_tracker/imaging/lens_distortion.h"
 
 namespace fluoro_tracker {
 namespace io {
@@ -15,6 +16,8 @@ namespace io {
 struct FluoroView {
   std::string name;
   geometry::XrayCamera camera;
+  // The lens distortion its frames carry (an uncorrected image intensifier); none by default.
+  imaging::LensDistortion distortion;
 };
 
 // The name of view `index` (from 0) of `count` views.

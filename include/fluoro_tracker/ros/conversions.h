@@ -14,14 +14,17 @@
 
 #include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/geometry/xray_camera.h"
+#include "fluoro_tracker/imaging/lens_distortion.h"
 
 namespace fluoro_tracker {
 namespace ros_bridge {
 
-// CameraInfo for a view: K from the camera, P = [K | 0], identity R, no distortion (the frames
-// it goes with are the pinhole's; see ViewRectifier for those that are not), header frame_id =
-// the camera's optical frame.
-sensor_msgs::CameraInfo toCameraInfo(const geometry::XrayCamera& camera, const ros::Time& stamp);
+// CameraInfo for a view: K from the camera, P = [K | 0], identity R, the lens distortion its
+// frames carry (plumb_bob with zeros when none), header frame_id = the camera's optical frame.
+sensor_msgs::CameraInfo toCameraInfo(const geometry::XrayCamera& camera, const ros::Time& stamp,
+                                     const imaging::LensDistortion& distortion = {});
+// The distortion model and coefficients of a CameraInfo (not validated).
+imaging::LensDistortion lensDistortion(const sensor_msgs::CameraInfo& info);
 // Throws InputError naming the frame for K[0] == 0, a zero size or a non-finite K.
 geometry::XrayCamera fromCameraInfo(const sensor_msgs::CameraInfo& info);
 

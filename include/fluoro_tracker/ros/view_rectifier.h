@@ -2,9 +2,12 @@
 
 #include <sensor_msgs/CameraInfo.h>
 
+#include <optional>
+
 #include <opencv2/core.hpp>
 
 #include "fluoro_tracker/geometry/xray_camera.h"
+#include "fluoro_tracker/imaging/lens_distortion.h"
 
 namespace fluoro_tracker {
 namespace ros_bridge {
@@ -13,10 +16,9 @@ namespace ros_bridge {
 // the camera_info may carry (an image intensifier's pincushion and S-distortion, calibrated
 // with a grid of beads). The registration's model is a pinhole, so a frame whose camera_info
 // has non-zero distortion coefficients is remapped onto the pinhole of the same K before
-// anything else sees it: OpenCV's undistortion maps, built once per calibration, bilinear
-// interpolation, the border replicated so that the field's edge makes no step. Distortion
-// models: plumb_bob (5 coefficients), rational_polynomial (8) and equidistant (4, fisheye). R
-// is taken as the identity (one camera, nothing to rectify against).
+// anything else sees it (imaging::removeLensDistortion, its maps built once per calibration).
+// Distortion models: plumb_bob (5 coefficients), rational_polynomial (8) and equidistant (4,
+// fisheye). R is taken as the identity (one camera, nothing to rectify against).
 class ViewRectifier {
  public:
   // Throws InputError naming the problem: a K that fromCameraInfo rejects, an unknown
@@ -26,7 +28,7 @@ class ViewRectifier {
 
   const geometry::XrayCamera& camera() const { return camera_; }
   // Whether frames are remapped (some coefficient is not zero).
-  bool removesDistortion() const { return !map_x_.empty(); }
+  bool removesDistortion() const { return maps_.has_value(); }
   // The frame on the camera's pinhole: the image itself when there is no distortion, else a
   // remapped copy of the same size and type. Throws InputError for a frame of another size.
   cv::Mat rectify(const cv::Mat& image) const;
@@ -37,8 +39,7 @@ class ViewRectifier {
  private:
   geometry::XrayCamera camera_;
   sensor_msgs::CameraInfo info_;
-  cv::Mat map_x_;
-  cv::Mat map_y_;
+  std::optional<imaging::UndistortionMaps> maps_;
 };
 
 }  // namespace ros_bridge

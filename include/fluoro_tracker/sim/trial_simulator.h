@@ -10,6 +10,7 @@
 #include "fluoro_tracker/geometry/mesh.h"
 #include "fluoro_tracker/geometry/xray_camera.h"
 #include "fluoro_tracker/imaging/detector_model.h"
+#include "fluoro_tracker/imaging/lens_distortion.h"
 #include "fluoro_tracker/io/fluoro_view.h"
 #include "fluoro_tracker/io/trial_config.h"
 #include "fluoro_tracker/kinematics/knee_coordinates.h"
@@ -55,6 +56,9 @@ struct TrialSimulatorSettings {
   // their sagittal plane, the same clinical motion), seen from the other side: with the beam
   // still along medial-lateral, anterior points to the image right instead of the left.
   kinematics::Side side = kinematics::Side::kRight;
+  // An image intensifier's distortion left in the frames (and written to camera_info), e.g.
+  // {plumb_bob, [k1, 0, 0, 0, 0]}; none by default.
+  imaging::LensDistortion lens_distortion;
   KneeMotionSettings motion;
   imaging::DetectorSettings detector;
   KneeImplantDimensions implants;

@@ -12,7 +12,6 @@
 #include "fluoro_tracker/ros/bag_frame_reader.h"
 #include "fluoro_tracker/ros/conversions.h"
 #include "fluoro_tracker/ros/trial_bag_writer.h"
-#include "lens_distortion.h"
 
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
@@ -235,8 +234,9 @@ TEST(TrackBag, RemovesTheLensDistortionThatCameraInfoCarries) {
       sensor_msgs::CameraInfo lens = *info;
       lens.distortion_model = "plumb_bob";
       lens.D = {6.0, 0.0, 0.0, 0.0, 0.0};
-      const cv::Mat distorted =
-          test_support::withLensDistortion(ros_bridge::fromImageMessage(image), lens);
+      const cv::Mat distorted = imaging::applyLensDistortion(ros_bridge::fromImageMessage(image),
+                                                             ros_bridge::fromCameraInfo(lens),
+                                                             ros_bridge::lensDistortion(lens));
       out.write("/fluoro/image_raw", time, ros_bridge::toImageMessage(distorted, image.header));
       if (!keep_coefficients) lens.D.assign(5, 0.0);
       out.write("/fluoro/camera_info", time, lens);

@@ -6,7 +6,6 @@
 #include "../test_support.h"
 #include "fluoro_tracker/ros/conversions.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
-#include "lens_distortion.h"
 
 using namespace fluoro_tracker;
 
@@ -44,7 +43,8 @@ TEST(ViewRectifier, RemovesTheLensDistortionItsCameraInfoDescribes) {
   sensor_msgs::CameraInfo info = pinhole.info;
   info.distortion_model = "plumb_bob";
   info.D = {6.0, 0.0, 0.0, 0.0, 0.0};  // 6 px at 160 px from the centre
-  const cv::Mat distorted = test_support::withLensDistortion(pinhole.image, info);
+  const cv::Mat distorted = imaging::applyLensDistortion(
+      pinhole.image, ros_bridge::fromCameraInfo(info), ros_bridge::lensDistortion(info));
   const ros_bridge::ViewRectifier rectifier(info);
   EXPECT_TRUE(rectifier.removesDistortion());
   const cv::Mat rectified = rectifier.rectify(distorted);
@@ -87,4 +87,17 @@ TEST(ViewRectifier, BadDistortionIsNamed) {
   const ros_bridge::ViewRectifier fine(pinhole.info);
   EXPECT_THROW_WITH(fine.rectify(cv::Mat(100, 100, CV_8UC1, cv::Scalar(0))),
                     "is 100x100 but its camera_info says 512x512");
+}
+
+TEST(ViewRectifier, CameraInfoCarriesTheViewsDistortion) {
+  const geometry::XrayCamera camera(64, 48, 500.0, 500.0, 31.5, 23.5, "fluoro_optical");
+  const imaging::LensDistortion lens{"rational_polynomial",
+                                     {0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0}};
+  const sensor_msgs::CameraInfo info = ros_bridge::toCameraInfo(camera, ros::Time(1.0), lens);
+  EXPECT_EQ(info.distortion_model, "rational_polynomial");
+  EXPECT_EQ(info.D, lens.coefficients);
+  EXPECT_TRUE(ros_bridge::ViewRectifier(info).removesDistortion());
+  const sensor_msgs::CameraInfo plain = ros_bridge::toCameraInfo(camera, ros::Time(1.0));
+  EXPECT_EQ(plain.distortion_model, "plumb_bob");
+  EXPECT_EQ(plain.D, std::vector<double>(5, 0.0));
 }

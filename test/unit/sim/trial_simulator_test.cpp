@@ -3,6 +3,7 @@
 #include <opencv2/imgproc.hpp>
 #include "../test_support.h"
 
+#include "fluoro_tracker/imaging/lens_distortion.h"
 #include "fluoro_tracker/imaging/renderer.h"
 
 using namespace fluoro_tracker;
@@ -189,6 +190,36 @@ TEST(TrialSimulator, LeftKneeMirrorsTheRightOne) {
   EXPECT_EQ(sim::loadSimulatorSettings(dir.file("side.yaml")).side, kinematics::Side::kLeft);
   test_support::writeText(dir.file("bad_side.yaml"), "side: up\n");
   EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("bad_side.yaml")), "side 'up'");
+}
+
+// An uncorrected image intensifier: the frames carry its distortion, the views say which.
+TEST(TrialSimulator, LensDistortionIsLeftInTheFramesAndNamedByTheViews) {
+  TempDir dir;
+  test_support::writeText(dir.file("ii.yaml"),
+                          "image_width: 512\nimage_height: 512\npixel_spacing_mm: 0.76\n"
+                          "motion: {frames: 3}\n"
+                          "lens_distortion: {model: plumb_bob, coefficients: [2, 0, 0, 0, 0]}\n");
+  const sim::TrialSimulatorSettings distorted_settings =
+      sim::loadSimulatorSettings(dir.file("ii.yaml"));
+  sim::TrialSimulatorSettings pinhole_settings = distorted_settings;
+  pinhole_settings.lens_distortion = {};
+  const sim::TrialSimulator distorted(distorted_settings);
+  const sim::TrialSimulator pinhole(pinhole_settings);
+  EXPECT_EQ(distorted.views()[0].distortion.model, "plumb_bob");
+  EXPECT_FALSE(pinhole.views()[0].distortion.any());
+  std::mt19937_64 a(4);
+  std::mt19937_64 b(4);
+  const cv::Mat frame = distorted.render(1, &a).images[0];
+  const cv::Mat expected = imaging::applyLensDistortion(
+      pinhole.render(1, &b).images[0], pinhole.views()[0].camera, distorted.views()[0].distortion);
+  EXPECT_EQ(cv::norm(frame, expected, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(frame, pinhole.render(1, &b).images[0], cv::NORM_L1), 0.0);
+
+  test_support::writeText(dir.file("bad.yaml"),
+                          "lens_distortion: {model: barrel, coefficients: [0.1]}\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("bad.yaml")), "distortion model 'barrel'");
+  test_support::writeText(dir.file("typo.yaml"), "lens_distortion: {modle: plumb_bob}\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("typo.yaml")), "unknown key 'modle'");
 }
 
 // Regression: at deep flexion the insert's dished top is seen edge-on and its centre fan folds
