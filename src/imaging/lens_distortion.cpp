@@ -29,15 +29,16 @@ bool fisheye(const LensDistortion& distortion) {
 
 }  // namespace
 
-bool LensDistortion::any() const {
-  return std::any_of(coefficients.begin(), coefficients.end(), [](double d) { return d != 0.0; });
+bool LensDistortion::distorts() const {
+  return fisheye(*this) ||
+         std::any_of(coefficients.begin(), coefficients.end(), [](double d) { return d != 0.0; });
 }
 
 void LensDistortion::validate(const std::string& where) const {
   for (double d : coefficients) {
     if (!std::isfinite(d)) throw InputError(where + " has a non-finite distortion coefficient");
   }
-  if (!any()) return;
+  if (!distorts()) return;
   const std::size_t expected = coefficientsOf(model);
   if (expected == 0) {
     throw InputError(where + " has distortion model '" + model +
@@ -77,7 +78,7 @@ cv::Mat removeLensDistortion(const cv::Mat& distorted, const UndistortionMaps& m
 cv::Mat applyLensDistortion(const cv::Mat& pinhole, const geometry::XrayCamera& camera,
                             const LensDistortion& distortion) {
   distortion.validate("camera '" + camera.frameId() + "'");
-  if (!distortion.any()) return pinhole.clone();
+  if (!distortion.distorts()) return pinhole.clone();
   const cv::Matx33d k = intrinsics(camera);
   const cv::Mat d(distortion.coefficients, true);
   std::vector<cv::Point2f> distorted;

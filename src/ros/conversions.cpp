@@ -23,7 +23,7 @@ sensor_msgs::CameraInfo toCameraInfo(const geometry::XrayCamera& camera, const r
   info.height = static_cast<std::uint32_t>(camera.height());
   info.distortion_model = "plumb_bob";
   info.D = {0.0, 0.0, 0.0, 0.0, 0.0};
-  if (distortion.any()) {
+  if (distortion.distorts()) {
     info.distortion_model = distortion.model;
     info.D = distortion.coefficients;
   }

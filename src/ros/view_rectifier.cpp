@@ -12,7 +12,7 @@ ViewRectifier::ViewRectifier(const sensor_msgs::CameraInfo& info)
     : camera_(fromCameraInfo(info)), info_(info) {
   const imaging::LensDistortion distortion = lensDistortion(info);
   distortion.validate("camera_info for frame '" + info.header.frame_id + "'");
-  if (distortion.any()) maps_ = imaging::undistortionMaps(camera_, distortion);
+  if (distortion.distorts()) maps_ = imaging::undistortionMaps(camera_, distortion);
 }
 
 cv::Mat ViewRectifier::rectify(const cv::Mat& image) const {

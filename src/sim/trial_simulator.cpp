@@ -264,7 +264,7 @@ SimulatedFrame TrialSimulator::render(int index, std::mt19937_64* rng) const {
   for (int v = 0; v < static_cast<int>(views_.size()); ++v) {
     cv::Mat image = imaging::formRadiograph(lineIntegral(index, v), settings_.detector, rng);
     const SimulatedView& view = views_[v];
-    if (view.distortion.any()) {
+    if (view.distortion.distorts()) {
       image = imaging::applyLensDistortion(image, view.camera, view.distortion);
     }
     frame.images.push_back(std::move(image));

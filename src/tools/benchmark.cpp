@@ -443,7 +443,7 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
     std::vector<std::optional<imaging::UndistortionMaps>> undistortion(view_images.size());
     for (std::size_t v = 0; v < view_images.size(); ++v) {
       const auto& view = simulator.views()[v];
-      if (view.distortion.any())
+      if (view.distortion.distorts())
         undistortion[v] = imaging::undistortionMaps(view.camera, view.distortion);
     }
     const Pose camera_from_fixed = simulator.views()[0].camera.worldFromCamera().inverse();

@@ -15,12 +15,14 @@ namespace imaging {
 // camera is a pinhole, so a distorted frame is remapped onto the pinhole of the same K first.
 struct LensDistortion {
   // plumb_bob (5 coefficients: k1 k2 p1 p2 k3), rational_polynomial (8) or equidistant (4,
-  // fisheye); any name, or none, when every coefficient is zero.
+  // fisheye); any name, or none, when every coefficient is zero and the model is not
+  // equidistant.
   std::string model;
   std::vector<double> coefficients;
 
-  // Whether some coefficient is not zero (a frame needs remapping).
-  bool any() const;
+  // Whether frames differ from the pinhole's and need remapping: some coefficient is not zero,
+  // or the model is equidistant (a fisheye projection even without coefficients).
+  bool distorts() const;
   // Throws InputError, prefixed with `where`, for a non-finite coefficient, an unknown model
   // with non-zero coefficients, or the wrong number of coefficients for the model.
   void validate(const std::string& where) const;

@@ -206,7 +206,7 @@ TEST(TrialSimulator, LensDistortionIsLeftInTheFramesAndNamedByTheViews) {
   const sim::TrialSimulator distorted(distorted_settings);
   const sim::TrialSimulator pinhole(pinhole_settings);
   EXPECT_EQ(distorted.views()[0].distortion.model, "plumb_bob");
-  EXPECT_FALSE(pinhole.views()[0].distortion.any());
+  EXPECT_FALSE(pinhole.views()[0].distortion.distorts());
   std::mt19937_64 a(4);
   std::mt19937_64 b(4);
   const cv::Mat frame = distorted.render(1, &a).images[0];
