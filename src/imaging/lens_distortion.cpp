@@ -50,8 +50,7 @@ void LensDistortion::validate(const std::string& where) const {
   }
 }
 
-UndistortionMaps undistortionMaps(const geometry::XrayCamera& camera,
-                                  const LensDistortion& distortion) {
+LensMaps undistortionMaps(const geometry::XrayCamera& camera, const LensDistortion& distortion) {
   distortion.validate("camera '" + camera.frameId() + "'");
   const cv::Matx33d k = intrinsics(camera);
   const cv::Mat d(distortion.coefficients, true);
@@ -64,27 +63,19 @@ UndistortionMaps undistortionMaps(const geometry::XrayCamera& camera,
     cv::initUndistortRectifyMap(k, d, cv::Matx33d::eye(), k, size, CV_32FC1, x, y);
   }
   // Fixed point (1/32 px): remapping a 1024 x 1024 frame took 2.6 ms instead of 4.1 here.
-  UndistortionMaps maps;
-  cv::convertMaps(x, y, maps.xy, maps.fraction, CV_16SC2);
+  LensMaps maps;
+  cv::convertMaps(x, y, maps.first, maps.second, CV_16SC2);
   return maps;
 }
 
-cv::Mat removeLensDistortion(const cv::Mat& distorted, const UndistortionMaps& maps) {
-  cv::Mat out;
-  cv::remap(distorted, out, maps.xy, maps.fraction, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-  return out;
-}
-
-cv::Mat applyLensDistortion(const cv::Mat& pinhole, const geometry::XrayCamera& camera,
-                            const LensDistortion& distortion) {
+LensMaps distortionMaps(const geometry::XrayCamera& camera, const LensDistortion& distortion) {
   distortion.validate("camera '" + camera.frameId() + "'");
-  if (!distortion.distorts()) return pinhole.clone();
   const cv::Matx33d k = intrinsics(camera);
   const cv::Mat d(distortion.coefficients, true);
   std::vector<cv::Point2f> distorted;
-  distorted.reserve(static_cast<std::size_t>(pinhole.rows) * pinhole.cols);
-  for (int v = 0; v < pinhole.rows; ++v) {
-    for (int u = 0; u < pinhole.cols; ++u) distorted.emplace_back(u, v);
+  distorted.reserve(static_cast<std::size_t>(camera.height()) * camera.width());
+  for (int v = 0; v < camera.height(); ++v) {
+    for (int u = 0; u < camera.width(); ++u) distorted.emplace_back(u, v);
   }
   std::vector<cv::Point2f> undistorted;
   if (fisheye(distortion)) {
@@ -92,18 +83,29 @@ cv::Mat applyLensDistortion(const cv::Mat& pinhole, const geometry::XrayCamera& 
   } else {
     cv::undistortPoints(distorted, undistorted, k, d, cv::noArray(), k);
   }
-  cv::Mat map_x(pinhole.size(), CV_32FC1);
-  cv::Mat map_y(pinhole.size(), CV_32FC1);
-  for (int v = 0; v < pinhole.rows; ++v) {
-    for (int u = 0; u < pinhole.cols; ++u) {
-      const cv::Point2f& p = undistorted[static_cast<std::size_t>(v) * pinhole.cols + u];
-      map_x.at<float>(v, u) = p.x;
-      map_y.at<float>(v, u) = p.y;
+  LensMaps maps{cv::Mat(camera.height(), camera.width(), CV_32FC1),
+                cv::Mat(camera.height(), camera.width(), CV_32FC1)};
+  for (int v = 0; v < camera.height(); ++v) {
+    for (int u = 0; u < camera.width(); ++u) {
+      const cv::Point2f& p = undistorted[static_cast<std::size_t>(v) * camera.width() + u];
+      maps.first.at<float>(v, u) = p.x;
+      maps.second.at<float>(v, u) = p.y;
     }
   }
+  return maps;
+}
+
+cv::Mat remapThroughLens(const cv::Mat& image, const LensMaps& maps) {
   cv::Mat out;
-  cv::remap(pinhole, out, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  cv::remap(image, out, maps.first, maps.second, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
   return out;
+}
+
+cv::Mat applyLensDistortion(const cv::Mat& pinhole, const geometry::XrayCamera& camera,
+                            const LensDistortion& distortion) {
+  distortion.validate("camera '" + camera.frameId() + "'");
+  if (!distortion.distorts()) return pinhole.clone();
+  return remapThroughLens(pinhole, distortionMaps(camera, distortion));
 }
 
 }  // namespace imaging

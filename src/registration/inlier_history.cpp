@@ -24,8 +24,12 @@ double InlierHistory::median(std::size_t bone) const {
 }
 
 double InlierHistory::reference(std::size_t bone) const {
+  return referenceAround(bone, median(bone));
+}
+
+double InlierHistory::referenceAround(std::size_t bone, double centre) const {
   if (trend_frames_ == 0 || bone >= recent_.size() || recent_[bone].size() < trend_frames_) {
-    return median(bone);
+    return centre;
   }
   const std::vector<double> last(recent_[bone].end() - static_cast<std::ptrdiff_t>(trend_frames_),
                                  recent_[bone].end());
@@ -70,7 +74,10 @@ void InlierHistory::classify(const std::vector<BoneQuality>& quality,
     if (drop_ > 0.0 && bone_status == "ok" && recent_[b].size() >= min_frames_) {
       // The allowance comes from the scatter about the window's median; the reference may
       // follow a trend.
-      if (fraction < reference(b) - allowedDrop(b)) bone_status = "suspect";
+      const double centre = median(b);
+      if (fraction < referenceAround(b, centre) - allowedDropAround(b, centre)) {
+        bone_status = "suspect";
+      }
     }
     if (bone_status == "lost") continue;
     recent_[b].push_back(fraction);

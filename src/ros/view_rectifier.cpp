@@ -21,7 +21,7 @@ cv::Mat ViewRectifier::rectify(const cv::Mat& image) const {
                      "x" + std::to_string(image.rows) + " but its camera_info says " +
                      std::to_string(camera_.width()) + "x" + std::to_string(camera_.height()));
   }
-  return removesDistortion() ? imaging::removeLensDistortion(image, *maps_) : image;
+  return removesDistortion() ? imaging::remapThroughLens(image, *maps_) : image;
 }
 
 bool ViewRectifier::sameCalibration(const sensor_msgs::CameraInfo& info) const {

@@ -136,6 +136,13 @@ TrialSimulator::TrialSimulator(const TrialSimulatorSettings& settings)
     }
   }
 
+  for (const SimulatedView& view : views_) {
+    distortion_maps_.push_back(view.distortion.distorts()
+                                   ? std::optional<imaging::LensMaps>(
+                                         imaging::distortionMaps(view.camera, view.distortion))
+                                   : std::nullopt);
+  }
+
   if (settings_.anatomy) {
     const double soft = imaging::materialByName("soft_tissue").attenuation_per_mm;
     const double cortical = imaging::materialByName("cortical_bone").attenuation_per_mm;
@@ -263,10 +270,7 @@ SimulatedFrame TrialSimulator::render(int index, std::mt19937_64* rng) const {
   SimulatedFrame frame = truth(index);
   for (int v = 0; v < static_cast<int>(views_.size()); ++v) {
     cv::Mat image = imaging::formRadiograph(lineIntegral(index, v), settings_.detector, rng);
-    const SimulatedView& view = views_[v];
-    if (view.distortion.distorts()) {
-      image = imaging::applyLensDistortion(image, view.camera, view.distortion);
-    }
+    if (distortion_maps_[v]) image = imaging::remapThroughLens(image, *distortion_maps_[v]);
     frame.images.push_back(std::move(image));
   }
   return frame;

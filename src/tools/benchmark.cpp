@@ -440,7 +440,7 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
     std::vector<registration::ViewImage> view_images;
     for (const auto& v : simulator.views()) view_images.push_back({cv::Mat(), v.camera});
     // Frames with an image intensifier's distortion are corrected as the node corrects them.
-    std::vector<std::optional<imaging::UndistortionMaps>> undistortion(view_images.size());
+    std::vector<std::optional<imaging::LensMaps>> undistortion(view_images.size());
     for (std::size_t v = 0; v < view_images.size(); ++v) {
       const auto& view = simulator.views()[v];
       if (view.distortion.distorts())
@@ -452,7 +452,7 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
       sim::SimulatedFrame frame = simulator.render(f, &rng);
       for (std::size_t v = 0; v < view_images.size(); ++v) {
         if (undistortion[v])
-          frame.images[v] = imaging::removeLensDistortion(frame.images[v], *undistortion[v]);
+          frame.images[v] = imaging::remapThroughLens(frame.images[v], *undistortion[v]);
         view_images[v].image = frame.images[v];
       }
       const std::vector<Pose> truth = {frame.femur, frame.tibia};

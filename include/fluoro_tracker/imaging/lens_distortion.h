@@ -28,22 +28,27 @@ struct LensDistortion {
   void validate(const std::string& where) const;
 };
 
-// Where each pixel of the pinhole frame lies in the distorted frame (OpenCV's undistortion
-// maps with R the identity and the same K, in OpenCV's fixed-point form): build once per
-// calibration.
-struct UndistortionMaps {
-  cv::Mat xy;        // CV_16SC2: integer pixel positions
-  cv::Mat fraction;  // CV_16UC1: their sub-pixel parts
+// Pixel maps for cv::remap through the lens, one way or the other: where each output pixel
+// samples its input. Build once per calibration (and view), use for every frame.
+struct LensMaps {
+  cv::Mat first;   // undistortion: CV_16SC2 integer positions; distortion: CV_32FC1 x
+  cv::Mat second;  // undistortion: CV_16UC1 sub-pixel parts;  distortion: CV_32FC1 y
 };
-UndistortionMaps undistortionMaps(const geometry::XrayCamera& camera,
-                                  const LensDistortion& distortion);
 
-// The distorted frame on the pinhole: bilinear, the border replicated so that the field's edge
+// Distorted frame -> pinhole frame: where each pinhole pixel lies in the distorted frame
+// (OpenCV's undistortion maps with R the identity and the same K, in fixed point).
+LensMaps undistortionMaps(const geometry::XrayCamera& camera, const LensDistortion& distortion);
+
+// Pinhole frame -> distorted frame (the simulator's detector): where each distorted pixel's
+// undistorted ray falls in the pinhole frame.
+LensMaps distortionMaps(const geometry::XrayCamera& camera, const LensDistortion& distortion);
+
+// The frame remapped through `maps`: bilinear, the border replicated so that the field's edge
 // makes no step. Same size and type.
-cv::Mat removeLensDistortion(const cv::Mat& distorted, const UndistortionMaps& maps);
+cv::Mat remapThroughLens(const cv::Mat& image, const LensMaps& maps);
 
-// The pinhole frame as the distorting lens shows it (the simulator's detector): each distorted
-// pixel samples the pinhole frame where its undistorted ray falls.
+// The pinhole frame as the distorting lens shows it, in one call (a copy when `distortion`
+// does not distort): for a single frame; build distortionMaps() once for many.
 cv::Mat applyLensDistortion(const cv::Mat& pinhole, const geometry::XrayCamera& camera,
                             const LensDistortion& distortion);
 

@@ -49,6 +49,8 @@ class InlierHistory {
 
  private:
   double allowedDropAround(std::size_t bone, double centre) const;
+  // reference() given the bone's median `centre`.
+  double referenceAround(std::size_t bone, double centre) const;
 
   double drop_;
   double spread_;

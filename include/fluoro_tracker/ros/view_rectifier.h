@@ -15,8 +15,8 @@ namespace ros_bridge {
 // One view's pinhole camera from its camera_info, and the removal of the lens distortion that
 // the camera_info may carry (an image intensifier's pincushion and S-distortion, calibrated
 // with a grid of beads). The registration's model is a pinhole, so a frame whose camera_info
-// has non-zero distortion coefficients is remapped onto the pinhole of the same K before
-// anything else sees it (imaging::removeLensDistortion, its maps built once per calibration).
+// describes a distortion is remapped onto the pinhole of the same K before
+// anything else sees it (imaging::undistortionMaps, built once per calibration).
 // Distortion models: plumb_bob (5 coefficients), rational_polynomial (8) and equidistant (4,
 // fisheye). R is taken as the identity (one camera, nothing to rectify against).
 class ViewRectifier {
@@ -27,7 +27,7 @@ class ViewRectifier {
   explicit ViewRectifier(const sensor_msgs::CameraInfo& info);
 
   const geometry::XrayCamera& camera() const { return camera_; }
-  // Whether frames are remapped (some coefficient is not zero).
+  // Whether frames are remapped (LensDistortion::distorts).
   bool removesDistortion() const { return maps_.has_value(); }
   // The frame on the camera's pinhole: the image itself when there is no distortion, else a
   // remapped copy of the same size and type. Throws InputError for a frame of another size.
@@ -39,7 +39,7 @@ class ViewRectifier {
  private:
   geometry::XrayCamera camera_;
   sensor_msgs::CameraInfo info_;
-  std::optional<imaging::UndistortionMaps> maps_;
+  std::optional<imaging::LensMaps> maps_;
 };
 
 }  // namespace ros_bridge

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -141,6 +142,8 @@ class TrialSimulator {
 
   void placeLabObjects();
   std::vector<SimulatedView> views_;
+  // Per view, the maps that put its lens distortion into a frame (none: a pinhole view).
+  std::vector<std::optional<imaging::LensMaps>> distortion_maps_;
   std::string fixed_frame_;
 };
 

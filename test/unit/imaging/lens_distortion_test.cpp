@@ -40,7 +40,7 @@ TEST(LensDistortion, RemovingUndoesApplyingForEveryModel) {
     EXPECT_TRUE(lens.distorts());
     const cv::Mat distorted = imaging::applyLensDistortion(card, camera, lens);
     const cv::Mat restored =
-        imaging::removeLensDistortion(distorted, imaging::undistortionMaps(camera, lens));
+        imaging::remapThroughLens(distorted, imaging::undistortionMaps(camera, lens));
     ASSERT_EQ(restored.size(), card.size());
     const double before = meanAbsoluteDifference(distorted, card);
     const double after = meanAbsoluteDifference(restored, card);
