@@ -76,8 +76,10 @@ void TrialSimulatorSettings::validate() const {
         "simulator: marker_grid_spacing_mm must be >= 0 (0: none) and more than the beads' "
         "diameter, marker_radius_mm > 0");
   }
-  if (!(marker_plane_from_source_mm > 0.0) ||
-      !(marker_plane_from_source_mm < principal_distance_mm)) {
+  // Only a grid that is drawn needs a plane: a shorter source-detector distance alone must not
+  // trip over the unused default.
+  if (marker_grid_spacing_mm > 0.0 && (!(marker_plane_from_source_mm > 0.0) ||
+                                       !(marker_plane_from_source_mm < principal_distance_mm))) {
     throw InputError(
         "simulator: marker_plane_from_source_mm must lie between the source and the detector");
   }

@@ -302,6 +302,13 @@ TEST(TrialSimulator, MarkerGridAndPlatformAddLabFixedClutter) {
   EXPECT_THROW_WITH(sim::TrialSimulator{platform}, "platform_width_mm");
   markers.marker_grid_spacing_mm = 2.0;  // not more than the beads' diameter
   EXPECT_THROW_WITH(sim::TrialSimulator{markers}, "marker_grid_spacing_mm");
+  // A shorter source-detector distance leaves the default bead plane (1150 mm) beyond the
+  // detector: an error only when beads are drawn.
+  sim::TrialSimulatorSettings short_throw = plain;
+  short_throw.principal_distance_mm = 1050.0;
+  EXPECT_NO_THROW(sim::TrialSimulator{short_throw});
+  short_throw.marker_grid_spacing_mm = 30.0;
+  EXPECT_THROW_WITH(sim::TrialSimulator{short_throw}, "marker_plane_from_source_mm");
 }
 
 // Another implant design: config/robustness/kneel_implants.yaml reads the real vendor models of
