@@ -1,8 +1,10 @@
 #include "fluoro_tracker/imaging/edge_map.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 
 #include <opencv2/imgproc.hpp>
@@ -123,6 +125,138 @@ float percentile(const cv::Mat& values, double fraction) {
   return *kth;
 }
 
+// The standard deviation of one gradient component under the local noise, per kTilePx tile:
+// the tile's 30th percentile of the gradient magnitude (for Gaussian noise the magnitude is
+// Rayleigh, whose 30th percentile is 0.845 sigma; an edge crossing a tile covers far less than
+// 30 % of it).
+class LocalGradientNoise {
+ public:
+  static constexpr int kTilePx = 16;
+  // The percentile is read from a histogram per tile (a selection per tile was most of this
+  // filter's time): bins an eighth of an octave wide (the float's exponent and its top three
+  // mantissa bits), from 2^-4 to 2^12 grey levels per pixel; smaller values share the first bin.
+  static constexpr int kMantissaBits = 3;
+  static constexpr int kLowestExponent = -4;
+  static constexpr int kBins = 16 << kMantissaBits;
+
+  explicit LocalGradientNoise(const cv::Mat& magnitude)
+      : tiles_u_(std::max(1, magnitude.cols / kTilePx)),
+        tiles_v_(std::max(1, magnitude.rows / kTilePx)),
+        cols_(magnitude.cols),
+        rows_(magnitude.rows),
+        sigma_(static_cast<std::size_t>(tiles_u_ * tiles_v_)) {
+    constexpr double kRayleigh30 = 0.8446;
+    std::array<int, kBins> histogram{};
+    for (int tv = 0; tv < tiles_v_; ++tv) {
+      const int v0 = tv * rows_ / tiles_v_;
+      const int v1 = (tv + 1) * rows_ / tiles_v_;
+      for (int tu = 0; tu < tiles_u_; ++tu) {
+        const int u0 = tu * cols_ / tiles_u_;
+        const int u1 = (tu + 1) * cols_ / tiles_u_;
+        histogram.fill(0);
+        for (int v = v0; v < v1; ++v) {
+          const float* row = magnitude.ptr<float>(v);
+          for (int u = u0; u < u1; ++u) ++histogram[binOf(row[u])];
+        }
+        // The value with 30 % of the tile below it, linear within its bin.
+        const double rank = 0.3 * (u1 - u0) * (v1 - v0);
+        int bin = 0;
+        int below = 0;
+        while (bin < kBins - 1 && below + histogram[bin] <= rank) below += histogram[bin++];
+        const double within = histogram[bin] > 0 ? (rank - below) / histogram[bin] : 0.0;
+        const double value = binStart(bin) + within * (binStart(bin + 1) - binStart(bin));
+        sigma_[static_cast<std::size_t>(tv * tiles_u_ + tu)] =
+            static_cast<float>(value / kRayleigh30);
+      }
+    }
+  }
+
+  static int binOf(float value) {
+    // The key of 2^kLowestExponent: its biased exponent, then zero mantissa bits.
+    constexpr int first = (127 + kLowestExponent) << kMantissaBits;
+    const int key = static_cast<int>(bitsOf(std::max(value, 0.0f)) >> (23 - kMantissaBits));
+    return std::clamp(key - first, 0, kBins - 1);
+  }
+
+  static double binStart(int bin) {
+    if (bin <= 0) return 0.0;
+    const int exponent = bin >> kMantissaBits;
+    const int mantissa = bin & ((1 << kMantissaBits) - 1);
+    return std::ldexp(1.0 + static_cast<double>(mantissa) / (1 << kMantissaBits),
+                      kLowestExponent + exponent);
+  }
+
+  static std::uint32_t bitsOf(float value) {
+    std::uint32_t bits = 0;
+    std::memcpy(&bits, &value, sizeof(bits));
+    return bits;
+  }
+
+  // Bilinear between tile centres, constant beyond the outer ones.
+  float at(int u, int v) const {
+    const float x = std::clamp((u + 0.5f) * tiles_u_ / cols_ - 0.5f, 0.0f, tiles_u_ - 1.0f);
+    const float y = std::clamp((v + 0.5f) * tiles_v_ / rows_ - 0.5f, 0.0f, tiles_v_ - 1.0f);
+    const int x0 = std::min(static_cast<int>(x), tiles_u_ - 1);
+    const int y0 = std::min(static_cast<int>(y), tiles_v_ - 1);
+    const int x1 = std::min(x0 + 1, tiles_u_ - 1);
+    const int y1 = std::min(y0 + 1, tiles_v_ - 1);
+    const float a = x - x0;
+    const float b = y - y0;
+    const auto tile = [&](int tu, int tv) {
+      return sigma_[static_cast<std::size_t>(tv * tiles_u_ + tu)];
+    };
+    return (1 - b) * ((1 - a) * tile(x0, y0) + a * tile(x1, y0)) +
+           b * ((1 - a) * tile(x0, y1) + a * tile(x1, y1));
+  }
+
+ private:
+  int tiles_u_;
+  int tiles_v_;
+  int cols_;
+  int rows_;
+  std::vector<float> sigma_;
+};
+
+// Removes from `edges` the pixels whose gradient is below `low` local noise standard
+// deviations, and the 8-connected chains left that nowhere reach `high`.
+void removeInsignificantEdges(const cv::Mat& magnitude, double high, double low, cv::Mat* edges) {
+  const LocalGradientNoise noise(magnitude);
+  for (int v = 0; v < edges->rows; ++v) {
+    std::uint8_t* e = edges->ptr<std::uint8_t>(v);
+    const float* m = magnitude.ptr<float>(v);
+    for (int u = 0; u < edges->cols; ++u) {
+      if (e[u] != 0 && m[u] < low * noise.at(u, v)) e[u] = 0;
+    }
+  }
+  // Each chain, flood-filled from its first pixel, is dropped unless one pixel reaches `high`.
+  cv::Mat visited = cv::Mat::zeros(edges->size(), CV_8U);
+  std::vector<cv::Point> chain;
+  for (int v = 0; v < edges->rows; ++v) {
+    for (int u = 0; u < edges->cols; ++u) {
+      if (edges->at<std::uint8_t>(v, u) == 0 || visited.at<std::uint8_t>(v, u) != 0) continue;
+      chain.assign(1, cv::Point(u, v));
+      visited.at<std::uint8_t>(v, u) = 1;
+      bool significant = false;
+      for (std::size_t i = 0; i < chain.size(); ++i) {
+        const cv::Point p = chain[i];
+        if (!significant && magnitude.at<float>(p) >= high * noise.at(p.x, p.y)) significant = true;
+        for (int dv = -1; dv <= 1; ++dv) {
+          for (int du = -1; du <= 1; ++du) {
+            const cv::Point q(p.x + du, p.y + dv);
+            if (q.x < 0 || q.y < 0 || q.x >= edges->cols || q.y >= edges->rows) continue;
+            if (edges->at<std::uint8_t>(q) == 0 || visited.at<std::uint8_t>(q) != 0) continue;
+            visited.at<std::uint8_t>(q) = 1;
+            chain.push_back(q);
+          }
+        }
+      }
+      if (!significant) {
+        for (const cv::Point& p : chain) edges->at<std::uint8_t>(p) = 0;
+      }
+    }
+  }
+}
+
 }  // namespace
 
 void EdgeMapSettings::validate() const {
@@ -134,6 +268,11 @@ void EdgeMapSettings::validate() const {
   if (!(blur_sigma_px >= 0.0)) throw InputError("edge map: blur_sigma_px must be >= 0");
   if (!(line_distance_band_px > 0.0)) {
     throw InputError("edge map: line_distance_band_px must be > 0");
+  }
+  if (!(min_edge_significance >= 0.0) ||
+      !(edge_significance_low_ratio > 0.0 && edge_significance_low_ratio <= 1.0)) {
+    throw InputError(
+        "edge map: min_edge_significance must be >= 0 and edge_significance_low_ratio in (0, 1]");
   }
   if (canny_low < 0.0 || canny_high < 0.0)
     throw InputError("edge map: Canny thresholds must be >= 0");
@@ -196,6 +335,10 @@ EdgeMap::EdgeMap(const cv::Mat& image, const geometry::XrayCamera& camera, const
     low = s.auto_low_ratio * high;
   }
   cv::Canny(smooth, edges_, low, high, 3, true);
+  if (s.min_edge_significance > 0.0) {
+    removeInsignificantEdges(magnitude, s.min_edge_significance,
+                             s.edge_significance_low_ratio * s.min_edge_significance, &edges_);
+  }
   findNearestEdges(gx, gy, magnitude, s.line_distance_band_px);
 }
 

@@ -761,6 +761,11 @@ int main(int argc, char** argv) {
       "contour-spacing-px",
       po::value(&settings.contour_spacing_px)->default_value(settings.contour_spacing_px),
       "silhouette contour sample spacing, pixels at each scale")(
+      "min-edge-significance",
+      po::value(&settings.edges.min_edge_significance)
+          ->default_value(settings.edges.min_edge_significance),
+      "edges: keep chains whose gradient reaches this many local noise standard deviations "
+      "(0: off)")(
       "mirror-turn",
       po::value(&settings.mirror_check.turn_reflection)
           ->default_value(settings.mirror_check.turn_reflection),

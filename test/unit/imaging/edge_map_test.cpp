@@ -154,10 +154,48 @@ TEST(EdgeMap, DistanceIsToTheNearestEdgePointFoundByBruteForce) {
   }
 }
 
+// A weakly attenuating implant in a low-dose frame: few quanta through the metal make its
+// interior far noisier than the background. Here the implant fills the left of the image
+// (grey 152 with noise, its rim at u = 99.5) against a clean background of 200. Its outline
+// must stay while most of the noise's edges go.
+TEST(EdgeMap, EdgesInTheImplantsNoiseAreDroppedAndItsOutlineKept) {
+  cv::Mat image(kCamera.height(), kCamera.width(), CV_32F, cv::Scalar(200.0));
+  cv::Mat noise(image.size(), CV_32F);
+  cv::RNG rng(7);
+  rng.fill(noise, cv::RNG::NORMAL, 152.0, 8.0);
+  noise(cv::Rect(0, 0, 100, image.rows)).copyTo(image(cv::Rect(0, 0, 100, image.rows)));
+  image.convertTo(image, CV_8U);
+  const auto interior_edges = [](const EdgeMap& map) {
+    return cv::countNonZero(map.edges()(cv::Rect(0, 0, 90, map.edges().rows)));
+  };
+  imaging::EdgeMapSettings unfiltered;
+  unfiltered.min_edge_significance = 0.0;
+  const EdgeMap noisy(image, kCamera, unfiltered);
+  const EdgeMap filtered(image, kCamera, imaging::EdgeMapSettings());
+  const int before = interior_edges(noisy);
+  const int after = interior_edges(filtered);
+  EXPECT_GT(before, 300);
+  // Chains of pure noise that somewhere peak above 3 sd remain (about 1 % of Gaussian noise's
+  // gradients do, and Canny joins many pixels into a chain); most go.
+  EXPECT_LT(after, before / 3) << before;
+  int on_outline = 0;
+  for (int v = 10; v < kCamera.height() - 10; ++v) {
+    double d = 0.0;
+    double du = 0.0;
+    double dv = 0.0;
+    ASSERT_TRUE(filtered.sample(99.5, v, &d, &du, &dv));
+    if (std::abs(d) <= 0.5) ++on_outline;
+  }
+  EXPECT_GE(on_outline, kCamera.height() - 20 - 4);
+}
+
 TEST(EdgeMap, BadImagesNameTheProblem) {
   EXPECT_THROW_WITH(EdgeMap(cv::Mat(), kCamera, imaging::EdgeMapSettings()), "is empty");
   EXPECT_THROW_WITH(EdgeMap(cv::Mat::zeros(100, 100, CV_8U), kCamera, imaging::EdgeMapSettings()),
                     "camera_info says 200x160");
   EXPECT_THROW_WITH(EdgeMap(cv::Mat::zeros(160, 200, CV_32F), kCamera, imaging::EdgeMapSettings()),
                     "8- or 16-bit");
+  imaging::EdgeMapSettings negative;
+  negative.min_edge_significance = -1.0;
+  EXPECT_THROW_WITH(EdgeMap(disc(false), kCamera, negative), "min_edge_significance");
 }

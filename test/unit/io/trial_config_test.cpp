@@ -451,6 +451,8 @@ registration:
       "relative_inlier_min_frames in [1, relative_inlier_window]");
   expectRegistrationRejected("{quality: {relative_inlier_trend_frames: 2}}",
                              "relative_inlier_trend_frames must be 0 (off) or >= 3");
+  expectRegistrationRejected("{edges: {edge_significance_low_ratio: 1.5}}",
+                             "edge_significance_low_ratio in (0, 1]");
 }
 
 TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
@@ -475,6 +477,9 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.registration.edges.max_distance_px, d.edges.max_distance_px);
   EXPECT_DOUBLE_EQ(c.registration.edges.auto_high_fraction, d.edges.auto_high_fraction);
   EXPECT_EQ(c.registration.edges.clahe, d.edges.clahe);
+  EXPECT_DOUBLE_EQ(c.registration.edges.min_edge_significance, d.edges.min_edge_significance);
+  EXPECT_DOUBLE_EQ(c.registration.edges.edge_significance_low_ratio,
+                   d.edges.edge_significance_low_ratio);
   EXPECT_DOUBLE_EQ(c.registration.edges.line_distance_band_px, d.edges.line_distance_band_px);
   EXPECT_EQ(c.registration.edge_offset_model, d.edge_offset_model);
   EXPECT_EQ(c.registration.parameterisation, d.parameterisation);
