@@ -238,6 +238,24 @@ class LocalGradientNoise {
     }
   }
 
+  // Bilinear between tile centres, constant beyond the outer ones.
+  float at(int u, int v) const {
+    const float x = std::clamp((u + 0.5f) * tiles_u_ / cols_ - 0.5f, 0.0f, tiles_u_ - 1.0f);
+    const float y = std::clamp((v + 0.5f) * tiles_v_ / rows_ - 0.5f, 0.0f, tiles_v_ - 1.0f);
+    const int x0 = std::min(static_cast<int>(x), tiles_u_ - 1);
+    const int y0 = std::min(static_cast<int>(y), tiles_v_ - 1);
+    const int x1 = std::min(x0 + 1, tiles_u_ - 1);
+    const int y1 = std::min(y0 + 1, tiles_v_ - 1);
+    const float a = x - x0;
+    const float b = y - y0;
+    const auto tile = [&](int tu, int tv) {
+      return sigma_[static_cast<std::size_t>(tv * tiles_u_ + tu)];
+    };
+    return (1 - b) * ((1 - a) * tile(x0, y0) + a * tile(x1, y0)) +
+           b * ((1 - a) * tile(x0, y1) + a * tile(x1, y1));
+  }
+
+ private:
   static int binOf(float value) {
     // The key of 2^kLowestExponent: its biased exponent, then zero mantissa bits.
     constexpr int first = (127 + kLowestExponent) << kMantissaBits;
@@ -259,24 +277,6 @@ class LocalGradientNoise {
     return bits;
   }
 
-  // Bilinear between tile centres, constant beyond the outer ones.
-  float at(int u, int v) const {
-    const float x = std::clamp((u + 0.5f) * tiles_u_ / cols_ - 0.5f, 0.0f, tiles_u_ - 1.0f);
-    const float y = std::clamp((v + 0.5f) * tiles_v_ / rows_ - 0.5f, 0.0f, tiles_v_ - 1.0f);
-    const int x0 = std::min(static_cast<int>(x), tiles_u_ - 1);
-    const int y0 = std::min(static_cast<int>(y), tiles_v_ - 1);
-    const int x1 = std::min(x0 + 1, tiles_u_ - 1);
-    const int y1 = std::min(y0 + 1, tiles_v_ - 1);
-    const float a = x - x0;
-    const float b = y - y0;
-    const auto tile = [&](int tu, int tv) {
-      return sigma_[static_cast<std::size_t>(tv * tiles_u_ + tu)];
-    };
-    return (1 - b) * ((1 - a) * tile(x0, y0) + a * tile(x1, y0)) +
-           b * ((1 - a) * tile(x0, y1) + a * tile(x1, y1));
-  }
-
- private:
   int tiles_u_;
   int tiles_v_;
   int cols_;
