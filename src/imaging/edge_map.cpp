@@ -75,17 +75,19 @@ std::pair<double, double> percentiles(const cv::Mat& region, double low, double 
   return {lo, hi};
 }
 
-// Bilinear sample of a CV_32F image, clamped to its border.
+// Bilinear sample of a CV_32F image, clamped to its border (an image one pixel wide or high is
+// interpolated along its other axis).
 double bilinear(const cv::Mat& image, double u, double v) {
   u = std::clamp(u, 0.0, image.cols - 1.0);
   v = std::clamp(v, 0.0, image.rows - 1.0);
-  const int u0 = std::min(static_cast<int>(u), image.cols - 2);
-  const int v0 = std::min(static_cast<int>(v), image.rows - 2);
-  if (u0 < 0 || v0 < 0) return image.at<float>(static_cast<int>(v), static_cast<int>(u));
+  const int u0 = static_cast<int>(u);
+  const int v0 = static_cast<int>(v);
+  const int u1 = std::min(u0 + 1, image.cols - 1);
+  const int v1 = std::min(v0 + 1, image.rows - 1);
   const double a = u - u0;
   const double b = v - v0;
-  return (1 - b) * ((1 - a) * image.at<float>(v0, u0) + a * image.at<float>(v0, u0 + 1)) +
-         b * ((1 - a) * image.at<float>(v0 + 1, u0) + a * image.at<float>(v0 + 1, u0 + 1));
+  return (1 - b) * ((1 - a) * image.at<float>(v0, u0) + a * image.at<float>(v0, u1)) +
+         b * ((1 - a) * image.at<float>(v1, u0) + a * image.at<float>(v1, u1));
 }
 
 // Value below which `fraction` of the (non-negative) values of a continuous CV_32F image lie:
@@ -140,19 +142,20 @@ class LocalGradientNoise {
   static constexpr int kBins = 16 << kMantissaBits;
 
   explicit LocalGradientNoise(const cv::Mat& magnitude)
-      : tiles_u_(std::max(1, magnitude.cols / kTilePx)),
-        tiles_v_(std::max(1, magnitude.rows / kTilePx)),
-        cols_(magnitude.cols),
+      : cols_(magnitude.cols),
         rows_(magnitude.rows),
-        sigma_(static_cast<std::size_t>(tiles_u_ * tiles_v_)) {
+        sigma_(std::max(1, magnitude.rows / kTilePx), std::max(1, magnitude.cols / kTilePx),
+               CV_32F) {
+    const int tiles_u = sigma_.cols;
+    const int tiles_v = sigma_.rows;
     constexpr double kRayleigh30 = 0.8446;
     std::array<int, kBins> histogram{};
-    for (int tv = 0; tv < tiles_v_; ++tv) {
-      const int v0 = tv * rows_ / tiles_v_;
-      const int v1 = (tv + 1) * rows_ / tiles_v_;
-      for (int tu = 0; tu < tiles_u_; ++tu) {
-        const int u0 = tu * cols_ / tiles_u_;
-        const int u1 = (tu + 1) * cols_ / tiles_u_;
+    for (int tv = 0; tv < tiles_v; ++tv) {
+      const int v0 = tv * rows_ / tiles_v;
+      const int v1 = (tv + 1) * rows_ / tiles_v;
+      for (int tu = 0; tu < tiles_u; ++tu) {
+        const int u0 = tu * cols_ / tiles_u;
+        const int u1 = (tu + 1) * cols_ / tiles_u;
         histogram.fill(0);
         for (int v = v0; v < v1; ++v) {
           const float* row = magnitude.ptr<float>(v);
@@ -165,27 +168,15 @@ class LocalGradientNoise {
         while (bin < kBins - 1 && below + histogram[bin] <= rank) below += histogram[bin++];
         const double within = histogram[bin] > 0 ? (rank - below) / histogram[bin] : 0.0;
         const double value = binStart(bin) + within * (binStart(bin + 1) - binStart(bin));
-        sigma_[static_cast<std::size_t>(tv * tiles_u_ + tu)] =
-            static_cast<float>(value / kRayleigh30);
+        sigma_.at<float>(tv, tu) = static_cast<float>(value / kRayleigh30);
       }
     }
   }
 
   // Bilinear between tile centres, constant beyond the outer ones.
-  float at(int u, int v) const {
-    const float x = std::clamp((u + 0.5f) * tiles_u_ / cols_ - 0.5f, 0.0f, tiles_u_ - 1.0f);
-    const float y = std::clamp((v + 0.5f) * tiles_v_ / rows_ - 0.5f, 0.0f, tiles_v_ - 1.0f);
-    const int x0 = std::min(static_cast<int>(x), tiles_u_ - 1);
-    const int y0 = std::min(static_cast<int>(y), tiles_v_ - 1);
-    const int x1 = std::min(x0 + 1, tiles_u_ - 1);
-    const int y1 = std::min(y0 + 1, tiles_v_ - 1);
-    const float a = x - x0;
-    const float b = y - y0;
-    const auto tile = [&](int tu, int tv) {
-      return sigma_[static_cast<std::size_t>(tv * tiles_u_ + tu)];
-    };
-    return (1 - b) * ((1 - a) * tile(x0, y0) + a * tile(x1, y0)) +
-           b * ((1 - a) * tile(x0, y1) + a * tile(x1, y1));
+  double at(int u, int v) const {
+    return bilinear(sigma_, (u + 0.5) * sigma_.cols / cols_ - 0.5,
+                    (v + 0.5) * sigma_.rows / rows_ - 0.5);
   }
 
  private:
@@ -210,11 +201,9 @@ class LocalGradientNoise {
     return bits;
   }
 
-  int tiles_u_;
-  int tiles_v_;
   int cols_;
   int rows_;
-  std::vector<float> sigma_;
+  cv::Mat sigma_;  // CV_32F, one per tile
 };
 
 // Removes from `edges` the pixels whose gradient is below `low` local noise standard
