@@ -127,6 +127,73 @@ float percentile(const cv::Mat& values, double fraction) {
   return *kth;
 }
 
+// Pixels of a windowed 8-bit region on or near a large saturated area that reaches the region's
+// border: a collimated area (black, or white in an inverted display) or open air. Their border
+// is a full-range step, and in a tightly collimated field it runs through the region around the
+// implants; left in, it sets the automatic Canny thresholds (at stop 37, collimated to half the
+// image: 52 of 60 tracked frames; the tray's faint outline in flexion dropped out). An implant
+// is saturated too where it is thick, but it lies inside the region, which the bones'
+// projections and a margin define. Saturated: within 8 grey levels of the window's ends; large:
+// 0.5 % of the region; near: within 8 pixels (beyond the smoothing's and Sobel's reach).
+cv::Mat saturatedAreaBorders(const cv::Mat& grey) {
+  // Found on a quarter-resolution copy (block means; a tenth of the full-resolution search's
+  // time), where saturated blocks lie wholly inside the area, and grown by two blocks.
+  constexpr int kBlock = 4;
+  if (grey.cols < 4 * kBlock || grey.rows < 4 * kBlock) return cv::Mat();
+  cv::Mat blocks;
+  cv::resize(grey, blocks, cv::Size(grey.cols / kBlock, grey.rows / kBlock), 0.0, 0.0,
+             cv::INTER_AREA);
+  cv::Mat band = cv::Mat::zeros(blocks.size(), CV_8U);
+  for (int extreme : {0, 1}) {
+    const cv::Mat mask = extreme == 0 ? (blocks <= 8) : (blocks >= 247);
+    const bool on_border =
+        cv::countNonZero(mask.row(0)) > 0 || cv::countNonZero(mask.row(mask.rows - 1)) > 0 ||
+        cv::countNonZero(mask.col(0)) > 0 || cv::countNonZero(mask.col(mask.cols - 1)) > 0;
+    if (!on_border) continue;
+    cv::Mat labels;
+    cv::Mat stats;
+    cv::Mat centroids;
+    const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+    std::vector<char> keep(static_cast<std::size_t>(count), 0);
+    for (int c = 1; c < count; ++c) {
+      const int x = stats.at<int>(c, cv::CC_STAT_LEFT);
+      const int y = stats.at<int>(c, cv::CC_STAT_TOP);
+      const int w = stats.at<int>(c, cv::CC_STAT_WIDTH);
+      const int h = stats.at<int>(c, cv::CC_STAT_HEIGHT);
+      const bool touches = x == 0 || y == 0 || x + w == blocks.cols || y + h == blocks.rows;
+      keep[c] = touches && stats.at<int>(c, cv::CC_STAT_AREA) >= 0.005 * blocks.total();
+    }
+    for (int v = 0; v < blocks.rows; ++v) {
+      const int* l = labels.ptr<int>(v);
+      std::uint8_t* out = band.ptr<std::uint8_t>(v);
+      for (int u = 0; u < blocks.cols; ++u) {
+        if (keep[l[u]]) out[u] = 255;
+      }
+    }
+  }
+  if (cv::countNonZero(band) == 0) return cv::Mat();  // none: every pixel counts
+  cv::dilate(band, band, cv::Mat::ones(5, 5, CV_8U));
+  cv::Mat full;
+  cv::resize(band, full, grey.size(), 0.0, 0.0, cv::INTER_NEAREST);
+  return full;
+}
+
+// The values of `values` where `excluded` is zero (all of them when it is empty), as one row.
+cv::Mat keptValues(const cv::Mat& values, const cv::Mat& excluded) {
+  if (excluded.empty()) return values;
+  std::vector<float> kept;
+  kept.reserve(values.total());
+  for (int v = 0; v < values.rows; ++v) {
+    const float* x = values.ptr<float>(v);
+    const std::uint8_t* e = excluded.ptr<std::uint8_t>(v);
+    for (int u = 0; u < values.cols; ++u) {
+      if (e[u] == 0) kept.push_back(x[u]);
+    }
+  }
+  if (kept.empty()) return values;
+  return cv::Mat(kept, true).reshape(1, 1);
+}
+
 // The standard deviation of one gradient component under the local noise, per kTilePx tile:
 // the tile's 30th percentile of the gradient magnitude (for Gaussian noise the magnitude is
 // Rayleigh, whose 30th percentile is 0.845 sigma; an edge crossing a tile covers far less than
@@ -306,6 +373,9 @@ EdgeMap::EdgeMap(const cv::Mat& image, const geometry::XrayCamera& camera, const
   if (s.clahe) {
     cv::createCLAHE(s.clahe_clip_limit, cv::Size(8, 8))->apply(grey_, grey_);
   }
+  const bool automatic = s.canny_high <= 0.0;
+  const cv::Mat field_border =
+      automatic && s.thresholds_skip_saturated_borders ? saturatedAreaBorders(grey_) : cv::Mat();
   cv::Mat smooth = grey_;
   if (s.blur_sigma_px > 0.0) cv::GaussianBlur(grey_, smooth, cv::Size(0, 0), s.blur_sigma_px);
 
@@ -318,7 +388,9 @@ EdgeMap::EdgeMap(const cv::Mat& image, const geometry::XrayCamera& camera, const
   double low = s.canny_low;
   double high = s.canny_high;
   if (high <= 0.0) {
-    high = std::max(10.0, s.auto_high_fraction * percentile(magnitude, 0.995));
+    // EdgeMapSettings::thresholds_skip_saturated_borders; see saturatedAreaBorders.
+    high = std::max(10.0,
+                    s.auto_high_fraction * percentile(keptValues(magnitude, field_border), 0.995));
     low = s.auto_low_ratio * high;
   } else if (low <= 0.0) {
     low = s.auto_low_ratio * high;

@@ -331,8 +331,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   const YamlSection edges = section.child("edges");
   edges.allowOnly({"window_low_percentile", "window_high_percentile", "clahe", "clahe_clip_limit",
                    "blur_sigma_px", "canny_low", "canny_high", "auto_high_fraction",
-                   "auto_low_ratio", "min_edge_significance", "edge_significance_low_ratio",
-                   "max_distance_px", "line_distance_band_px"});
+                   "auto_low_ratio", "thresholds_skip_saturated_borders", "min_edge_significance",
+                   "edge_significance_low_ratio", "max_distance_px", "line_distance_band_px"});
   edges.read("window_low_percentile", &r.edges.window_low_percentile);
   edges.read("window_high_percentile", &r.edges.window_high_percentile);
   edges.read("clahe", &r.edges.clahe);
@@ -342,6 +342,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   edges.read("canny_high", &r.edges.canny_high);
   edges.read("auto_high_fraction", &r.edges.auto_high_fraction);
   edges.read("auto_low_ratio", &r.edges.auto_low_ratio);
+  edges.read("thresholds_skip_saturated_borders", &r.edges.thresholds_skip_saturated_borders);
   edges.read("min_edge_significance", &r.edges.min_edge_significance);
   edges.read("edge_significance_low_ratio", &r.edges.edge_significance_low_ratio);
   edges.read("max_distance_px", &r.edges.max_distance_px);

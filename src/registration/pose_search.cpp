@@ -234,6 +234,10 @@ PoseSearch::PoseSearch(std::shared_ptr<const Registrar> registrar, PoseSearchSet
   // 0180: a tibial tray turned 28 deg about its stem won). The search works on the window
   // alone; the final joint registration uses the trial's edge settings.
   refine.edges.clahe = false;
+  // Over the whole frame on the window alone, open air's border against the skin sets
+  // thresholds high enough to keep soft tissue's edges out of the screening; without it a
+  // bright femoral component in deep flexion lost to clutter (pose_search_test).
+  refine.edges.thresholds_skip_saturated_borders = false;
   // Starts are several pixels off at the coarsest scale: a wider robust kernel keeps their
   // edges in the basin (the final joint registration uses the trial's own settings).
   refine.robust_scale_px = std::max(refine.robust_scale_px, settings_.refine_robust_scale_px);

@@ -766,6 +766,11 @@ int main(int argc, char** argv) {
           ->default_value(settings.edges.min_edge_significance),
       "edges: keep chains whose gradient reaches this many local noise standard deviations "
       "(0: off)")(
+      "skip-saturated-borders",
+      po::value(&settings.edges.thresholds_skip_saturated_borders)
+          ->default_value(settings.edges.thresholds_skip_saturated_borders),
+      "edges: the automatic thresholds leave out large saturated areas reaching the region's "
+      "border (a collimator, open air) (true/false)")(
       "mirror-turn",
       po::value(&settings.mirror_check.turn_reflection)
           ->default_value(settings.mirror_check.turn_reflection),

@@ -33,6 +33,12 @@ struct EdgeMapSettings {
   // magnitude, low = high * auto_low_ratio.
   double auto_high_fraction = 0.3;
   double auto_low_ratio = 0.4;
+  // The automatic thresholds leave out large saturated areas that reach the region's border
+  // (a collimator's black, or white shown inverted; open air) and their borders: a full-range
+  // step that, in a tightly collimated field, runs through the region around the implants and
+  // would set thresholds that drop a faint implant's outline (a field collimated to half the
+  // image, scripts/robustness_benchmark.sh narrow_collimation: 52/60 tracked frames without).
+  bool thresholds_skip_saturated_borders = true;
   // An edge chain is kept only if somewhere along it the gradient stands this many standard
   // deviations of the local noise above zero, and only its pixels above the low ratio of it:
   // in a low-dose frame of a weakly attenuating implant (titanium) the few quanta through the

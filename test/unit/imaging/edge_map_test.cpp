@@ -189,6 +189,35 @@ TEST(EdgeMap, EdgesInTheImplantsNoiseAreDroppedAndItsOutlineKept) {
   EXPECT_GE(on_outline, kCamera.height() - 20 - 4);
 }
 
+// A tightly collimated field: the collimator's black reaches into the region with a border far
+// stronger than a faint implant's outline. The automatic Canny thresholds follow the region's
+// strongest gradients, and the border alone must not set them, or the implant's edges drop out.
+TEST(EdgeMap, ACollimatorsBorderDoesNotSetTheThresholds) {
+  cv::Mat image;
+  disc(false).convertTo(image, CV_8U, 0.25, 150.0);  // the implant 160, the field 200
+  cv::circle(image, cv::Point(100, 80), 140, cv::Scalar(255), 80);  // blades beyond 100 px
+  image.setTo(cv::Scalar(0), image == 255);
+  const auto pointsOnOutline = [&](bool skip_borders) {
+    imaging::EdgeMapSettings settings;
+    settings.thresholds_skip_saturated_borders = skip_borders;
+    const EdgeMap map(image, kCamera, settings);
+    int on_outline = 0;
+    for (int k = 0; k < 64; ++k) {
+      const double a = 2.0 * M_PI * k / 64;
+      double d = 0.0;
+      double du = 0.0;
+      double dv = 0.0;
+      EXPECT_TRUE(map.sample(100 + kDiscRadius * std::cos(a), 80 + kDiscRadius * std::sin(a), &d,
+                             &du, &dv));
+      if (std::abs(d) <= 0.5) ++on_outline;
+    }
+    return on_outline;
+  };
+  EXPECT_GE(pointsOnOutline(true), 60);
+  EXPECT_LT(pointsOnOutline(false), 32) << "the border does not set the thresholds here: the test "
+                                           "shows nothing";
+}
+
 TEST(EdgeMap, BadImagesNameTheProblem) {
   EXPECT_THROW_WITH(EdgeMap(cv::Mat(), kCamera, imaging::EdgeMapSettings()), "is empty");
   EXPECT_THROW_WITH(EdgeMap(cv::Mat::zeros(100, 100, CV_8U), kCamera, imaging::EdgeMapSettings()),

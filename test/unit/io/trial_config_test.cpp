@@ -353,7 +353,7 @@ registration:
   edge_offset_hold: false
   edge_offset_min_px: 0.0
   edge_offset_tracking: {enabled: false, frame_sd_px: 0.3, drift_px: 0.05}
-  edges: {clahe: true, canny_high: 60}
+  edges: {clahe: true, canny_high: 60, thresholds_skip_saturated_borders: false}
   mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, solver_iterations: 5,
                  turn_reflection: false, mirror_reflection: false, tilt_reflection: false, max_difference_deg: 30,
                  tracking_turn_max_difference_deg: 4, min_neutral_gain: 0.25,
@@ -384,6 +384,7 @@ registration:
                    registration::MirrorCheckSettings().min_difference_deg);
   EXPECT_FALSE(c.registration.depth_retry.enabled);
   EXPECT_EQ(c.registration.depth_retry.shifts_mm, (std::vector<double>{-10.0, 10.0, -25.0}));
+  EXPECT_FALSE(c.registration.edges.thresholds_skip_saturated_borders);
   EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_drop, 0.2);
   EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_spread, 2.5);
   EXPECT_EQ(c.registration.quality.relative_inlier_window, 10);
@@ -477,6 +478,8 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.registration.edges.max_distance_px, d.edges.max_distance_px);
   EXPECT_DOUBLE_EQ(c.registration.edges.auto_high_fraction, d.edges.auto_high_fraction);
   EXPECT_EQ(c.registration.edges.clahe, d.edges.clahe);
+  EXPECT_EQ(c.registration.edges.thresholds_skip_saturated_borders,
+            d.edges.thresholds_skip_saturated_borders);
   EXPECT_DOUBLE_EQ(c.registration.edges.min_edge_significance, d.edges.min_edge_significance);
   EXPECT_DOUBLE_EQ(c.registration.edges.edge_significance_low_ratio,
                    d.edges.edge_significance_low_ratio);
