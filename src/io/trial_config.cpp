@@ -214,6 +214,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "coarse_outer_iterations",
                      "tracking_scales",
                      "tracking_retry",
+                     "tracking_prediction",
                      "solver_iterations",
                      "contour_spacing_px",
                      "robust_scale_px",
@@ -265,6 +266,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("coarse_outer_iterations", &r.coarse_outer_iterations);
   section.read("tracking_scales", &r.tracking_scales);
   section.read("tracking_retry", &r.tracking_retry);
+  std::string tracking_prediction = registration::trackingPredictionName(r.tracking_prediction);
+  section.read("tracking_prediction", &tracking_prediction);
   section.read("solver_iterations", &r.solver_iterations);
   section.read("contour_spacing_px", &r.contour_spacing_px);
   section.read("robust_scale_px", &r.robust_scale_px);
@@ -350,6 +353,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   try {
     r.edge_offset_model = registration::edgeOffsetModelFromName(edge_offset_model);
     r.parameterisation = registration::parameterisationFromName(parameterisation);
+    r.tracking_prediction = registration::trackingPredictionFromName(tracking_prediction);
     r.validate();
   } catch (const InputError& e) {
     throw InputError(context + ": " + e.what());

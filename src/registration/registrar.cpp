@@ -453,6 +453,21 @@ std::string parameterisationName(RegistrationSettings::Parameterisation paramete
              : "absolute";
 }
 
+RegistrationSettings::TrackingPrediction trackingPredictionFromName(const std::string& name) {
+  using P = RegistrationSettings::TrackingPrediction;
+  for (P p : {P::kConstantVelocity, P::kJointCoordinates}) {
+    if (trackingPredictionName(p) == name) return p;
+  }
+  throw InputError("registration: tracking_prediction '" + name +
+                   "' is not one of constant_velocity, joint_coordinates");
+}
+
+std::string trackingPredictionName(RegistrationSettings::TrackingPrediction prediction) {
+  return prediction == RegistrationSettings::TrackingPrediction::kJointCoordinates
+             ? "joint_coordinates"
+             : "constant_velocity";
+}
+
 RegistrationSettings::EdgeOffsetModel edgeOffsetModelFromName(const std::string& name) {
   using Model = RegistrationSettings::EdgeOffsetModel;
   for (Model m : {Model::kNone, Model::kUniform}) {

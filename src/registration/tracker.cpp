@@ -4,6 +4,7 @@
 #include <chrono>
 
 #include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/registration/motion_prediction.h"
 
 namespace fluoro_tracker {
 namespace registration {
@@ -153,10 +154,8 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
   }
   std::vector<geometry::Pose> guess = poses_;
   if (previous_.size() == poses_.size()) {
-    // Constant velocity: repeat the last frame-to-frame motion.
-    for (std::size_t b = 0; b < guess.size(); ++b) {
-      guess[b] = geometry::normalized(poses_[b] * (previous_[b].inverse() * poses_[b]));
-    }
+    guess = predictPoses(previous_, poses_, registrar_->joints(),
+                         registrar_->settings().tracking_prediction);
   }
   const auto start = std::chrono::steady_clock::now();
   TrackedFrame frame;

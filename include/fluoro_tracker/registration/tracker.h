@@ -24,7 +24,8 @@ struct TrackedFrame {
 };
 
 // State across frames (architecture: registration::Tracker): each frame is registered from a
-// constant-velocity prediction of the last two good frames, and its quality classified
+// prediction from the last two good frames (predictPoses, RegistrationSettings::
+// tracking_prediction), and its quality classified
 // (classifyBones, then InlierHistory against the bone's recent frames). A lost bone keeps its last
 // good pose (the tracker never reports a jump its own quality rejects) and the prediction restarts
 // from it. With a PoseSearch, the tracker also starts without poses (the first frame is searched)

@@ -347,6 +347,7 @@ registration:
   coarse_outer_iterations: 3
   tracking_scales: [0.5, 1.0]
   tracking_retry: false
+  tracking_prediction: constant_velocity
   robust_scale_px: 3.0
   robust_scale_final_px: 1.5
   parameterisation: parent_relative
@@ -397,6 +398,8 @@ registration:
   EXPECT_EQ(c.registration.coarse_outer_iterations, 3);
   EXPECT_EQ(c.registration.tracking_scales, (std::vector<double>{0.5, 1.0}));
   EXPECT_FALSE(c.registration.tracking_retry);
+  EXPECT_EQ(c.registration.tracking_prediction,
+            registration::RegistrationSettings::TrackingPrediction::kConstantVelocity);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, 3.0);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_final_px, 1.5);
   EXPECT_FALSE(c.registration.edge_offset_hold);
@@ -432,6 +435,8 @@ registration:
   expectRegistrationRejected("{parameterisation: relative}",
                              "parameterisation 'relative' is not one of absolute, parent_relative");
   expectRegistrationRejected("{tracking_scales: []}", "tracking_scales must not be empty");
+  expectRegistrationRejected("{tracking_prediction: kalman}",
+                             "tracking_prediction 'kalman' is not one of");
   expectRegistrationRejected("{robust_scale_final_px: .nan}", "robust_scale_final_px must be");
   expectRegistrationRejected("{edge_offset_min_px: .nan}", "edge_offset_min_px must be a number");
   expectRegistrationRejected("{mirror_check: {cost_tolerance: -0.1}}", "mirror_check needs");
@@ -486,6 +491,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.registration.edges.line_distance_band_px, d.edges.line_distance_band_px);
   EXPECT_EQ(c.registration.edge_offset_model, d.edge_offset_model);
   EXPECT_EQ(c.registration.parameterisation, d.parameterisation);
+  EXPECT_EQ(c.registration.tracking_prediction, d.tracking_prediction);
   EXPECT_DOUBLE_EQ(c.registration.edge_offset_prior_px, d.edge_offset_prior_px);
   EXPECT_DOUBLE_EQ(c.registration.edge_offset_min_px, d.edge_offset_min_px);
   EXPECT_EQ(c.registration.edge_offset_hold, d.edge_offset_hold);
