@@ -373,9 +373,6 @@ EdgeMap::EdgeMap(const cv::Mat& image, const geometry::XrayCamera& camera, const
   if (s.clahe) {
     cv::createCLAHE(s.clahe_clip_limit, cv::Size(8, 8))->apply(grey_, grey_);
   }
-  const bool automatic = s.canny_high <= 0.0;
-  const cv::Mat field_border =
-      automatic && s.thresholds_skip_saturated_borders ? saturatedAreaBorders(grey_) : cv::Mat();
   cv::Mat smooth = grey_;
   if (s.blur_sigma_px > 0.0) cv::GaussianBlur(grey_, smooth, cv::Size(0, 0), s.blur_sigma_px);
 
@@ -389,6 +386,8 @@ EdgeMap::EdgeMap(const cv::Mat& image, const geometry::XrayCamera& camera, const
   double high = s.canny_high;
   if (high <= 0.0) {
     // EdgeMapSettings::thresholds_skip_saturated_borders; see saturatedAreaBorders.
+    const cv::Mat field_border =
+        s.thresholds_skip_saturated_borders ? saturatedAreaBorders(grey_) : cv::Mat();
     high = std::max(10.0,
                     s.auto_high_fraction * percentile(keptValues(magnitude, field_border), 0.995));
     low = s.auto_low_ratio * high;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
 #include <map>
 
@@ -436,15 +437,25 @@ void addCovarianceQuality(const Eigen::Matrix<double, 6, 6>& covariance, const g
   quality->max_rotation_sd_rad = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
 }
 
+// The setting among `values` whose YAML / command-line name (`name_of`) is `name`; throws
+// InputError naming `what` and the known names.
+template <typename Setting>
+Setting settingFromName(const std::string& name, std::initializer_list<Setting> values,
+                        std::string (*name_of)(Setting), const std::string& what) {
+  std::string known;
+  for (Setting value : values) {
+    if (name_of(value) == name) return value;
+    known += (known.empty() ? "" : ", ") + name_of(value);
+  }
+  throw InputError("registration: " + what + " '" + name + "' is not one of " + known);
+}
+
 }  // namespace
 
 RegistrationSettings::Parameterisation parameterisationFromName(const std::string& name) {
   using P = RegistrationSettings::Parameterisation;
-  for (P p : {P::kAbsolute, P::kParentRelative}) {
-    if (parameterisationName(p) == name) return p;
-  }
-  throw InputError("registration: parameterisation '" + name +
-                   "' is not one of absolute, parent_relative");
+  return settingFromName(name, {P::kAbsolute, P::kParentRelative}, &parameterisationName,
+                         "parameterisation");
 }
 
 std::string parameterisationName(RegistrationSettings::Parameterisation parameterisation) {
@@ -455,11 +466,8 @@ std::string parameterisationName(RegistrationSettings::Parameterisation paramete
 
 RegistrationSettings::TrackingPrediction trackingPredictionFromName(const std::string& name) {
   using P = RegistrationSettings::TrackingPrediction;
-  for (P p : {P::kConstantVelocity, P::kJointCoordinates}) {
-    if (trackingPredictionName(p) == name) return p;
-  }
-  throw InputError("registration: tracking_prediction '" + name +
-                   "' is not one of constant_velocity, joint_coordinates");
+  return settingFromName(name, {P::kConstantVelocity, P::kJointCoordinates},
+                         &trackingPredictionName, "tracking_prediction");
 }
 
 std::string trackingPredictionName(RegistrationSettings::TrackingPrediction prediction) {
@@ -470,10 +478,8 @@ std::string trackingPredictionName(RegistrationSettings::TrackingPrediction pred
 
 RegistrationSettings::EdgeOffsetModel edgeOffsetModelFromName(const std::string& name) {
   using Model = RegistrationSettings::EdgeOffsetModel;
-  for (Model m : {Model::kNone, Model::kUniform}) {
-    if (edgeOffsetModelName(m) == name) return m;
-  }
-  throw InputError("registration: edge offset model '" + name + "' is not one of none, uniform");
+  return settingFromName(name, {Model::kNone, Model::kUniform}, &edgeOffsetModelName,
+                         "edge offset model");
 }
 
 std::string edgeOffsetModelName(RegistrationSettings::EdgeOffsetModel model) {
