@@ -237,6 +237,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "edges",
                      "compute_covariance",
                      "mirror_check",
+                     "reflection_retry",
                      "depth_retry",
                      "quality",
                      "search"});
@@ -327,6 +328,11 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   mirror.read("abandon_cost_ratio", &r.mirror_check.abandon_cost_ratio);
   mirror.read("abandon_deviation_excess", &r.mirror_check.abandon_deviation_excess);
   mirror.read("start_deviation_excess", &r.mirror_check.start_deviation_excess);
+  const YamlSection reflection_retry = section.child("reflection_retry");
+  reflection_retry.allowOnly({"enabled", "below_inlier_fraction", "min_inlier_gain"});
+  reflection_retry.read("enabled", &r.reflection_retry.enabled);
+  reflection_retry.read("below_inlier_fraction", &r.reflection_retry.below_inlier_fraction);
+  reflection_retry.read("min_inlier_gain", &r.reflection_retry.min_inlier_gain);
   const YamlSection depth_retry = section.child("depth_retry");
   depth_retry.allowOnly({"enabled", "shifts_mm"});
   depth_retry.read("enabled", &r.depth_retry.enabled);

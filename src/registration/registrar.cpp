@@ -7,6 +7,7 @@
 #include <initializer_list>
 #include <limits>
 #include <map>
+#include <optional>
 
 #include <ceres/ceres.h>
 #include <Eigen/Eigenvalues>
@@ -559,6 +560,13 @@ void RegistrationSettings::validate() const {
         "outer_iterations >= 1, solver_iterations >= 1, abandon_cost_ratio > 0, "
         "abandon_deviation_excess > 0 and start_deviation_excess > 0");
   }
+  if (!(reflection_retry.below_inlier_fraction >= 0.0 &&
+        reflection_retry.below_inlier_fraction <= 1.0) ||
+      !(reflection_retry.min_inlier_gain >= 0.0)) {
+    throw InputError(
+        "registration: reflection_retry needs below_inlier_fraction in [0, 1] and "
+        "min_inlier_gain >= 0");
+  }
   for (double shift : depth_retry.shifts_mm) {
     if (!std::isfinite(shift) || shift == 0.0) {
       throw InputError("registration: depth_retry: shifts_mm must be finite and non-zero");
@@ -606,6 +614,7 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
     }
   }
   RegistrationResult result = solveChecked(views, initial_poses, loaded, offset_priors);
+  retryReflections(views, initial_poses, loaded, offset_priors, &result);
   if (!settings_.depth_retry.enabled) return result;
   // Fewer bones not ok first (lost counts twice), then more contour inliers.
   const auto rank = [&](const RegistrationResult& r) { return resultRank(r, settings_.quality); };
@@ -636,6 +645,66 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
   }
   counts.writeTo(&result);
   return result;
+}
+
+void Registrar::retryReflections(const std::vector<ViewImage>& views,
+                                 const std::vector<geometry::Pose>& initial_poses,
+                                 const std::vector<bool>& loaded,
+                                 const EdgeOffsetPriors& offset_priors,
+                                 RegistrationResult* result) const {
+  const ReflectionRetrySettings& retry_settings = settings_.reflection_retry;
+  // A second view sees the reflection from another side.
+  if (!retry_settings.enabled || views.size() != 1 ||
+      result->quality.size() != result->poses.size()) {
+    return;
+  }
+  const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();
+  const double min_difference = geometry::degToRad(settings_.mirror_check.min_difference_deg);
+  SolveCounts counts(*result);
+  for (std::size_t b = 0; b < result->poses.size(); ++b) {
+    const double inliers = result->quality[b].contour_inlier_fraction;
+    if (result->diverged[b] || !(inliers < retry_settings.below_inlier_fraction)) continue;
+    const geometry::Pose pose = camera_from_fixed * result->poses[b];
+    const std::array<geometry::Pose, 3> candidates = {
+        mirroredAcrossBeam(pose), turnReflectedAcrossBeam(pose), tiltReflectedAcrossBeam(pose)};
+    const int first_trouble = resultRank(*result, settings_.quality).first;
+    const double required_inliers = inliers + retry_settings.min_inlier_gain;
+    // Of the candidates that fit better, the one that ends nearest the start: a tray's tilt
+    // reflection and its turn reflection can fit a real frame about equally well, 30 deg apart
+    // (Kneel frame 0160), and the start is the only other evidence an image-only solve has.
+    std::optional<RegistrationResult> best;
+    double best_distance = std::numeric_limits<double>::infinity();
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+      const geometry::Pose& candidate = candidates[c];
+      // A reflection of a bone seen square to the beam is the bone itself; with its turn near
+      // zero, its tilt reflection is its full mirror: one solve serves.
+      if (geometry::rotationAngleBetween(candidate.linear(), pose.linear()) < min_difference)
+        continue;
+      const bool tried =
+          std::any_of(candidates.begin(), candidates.begin() + c, [&](const auto& other) {
+            return geometry::rotationAngleBetween(other.linear(), candidate.linear()) <
+                   min_difference;
+          });
+      if (tried) continue;
+      std::vector<geometry::Pose> starts = result->poses;
+      starts[b] = camera_from_fixed.inverse() * candidate;
+      RegistrationResult retry = solveChecked(views, starts, loaded, offset_priors);
+      counts.add(retry);
+      if (retry.diverged[b] || !(retry.quality[b].contour_inlier_fraction > required_inliers) ||
+          !(retry.final_cost < result->final_cost) ||
+          resultRank(retry, settings_.quality).first > first_trouble) {
+        continue;
+      }
+      const double distance =
+          geometry::rotationAngleBetween(retry.poses[b].linear(), initial_poses[b].linear());
+      if (distance < best_distance) {
+        best_distance = distance;
+        best = std::move(retry);
+      }
+    }
+    if (best) *result = std::move(*best);
+  }
+  counts.writeTo(result);
 }
 
 RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,

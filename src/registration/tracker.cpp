@@ -35,10 +35,11 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
   continuing_registrar_ = registrar_;
   const RegistrationSettings& settings = registrar_->settings();
   if (settings.mirror_check.enabled || settings.tracking_scales != settings.scales ||
-      settings.depth_retry.enabled) {
+      settings.depth_retry.enabled || settings.reflection_retry.enabled) {
     RegistrationSettings continuing = settings;
     // A continued frame starts near its answer; a lost one is searched (see track()).
     continuing.depth_retry.enabled = false;
+    continuing.reflection_retry.enabled = false;
     // Only the turn reflection, and only near the view where the branches meet (see
     // MirrorCheckSettings::tracking_turn_max_difference_deg).
     const MirrorCheckSettings& mirror = settings.mirror_check;

@@ -127,6 +127,28 @@ struct DepthRetrySettings {
   std::vector<double> shifts_mm = {-15.0, 15.0};
 };
 
+// Single view: a bone whose contour lies poorly on the image's edges after the solve (inlier
+// fraction below `below_inlier_fraction`) may sit in the false minimum its own reflection across
+// the beam leads into (see mirror_ambiguity.h: a start a few degrees to the wrong side of the view
+// where its tilt or turn has no sign converges there, and on real frames the trap also slides it
+// along the beam). The registrar then solves the frame again from each of the bone's reflections
+// (full mirror, turn reflection, tilt reflection) with the other bones at their results. A
+// candidate qualifies if its bone's inliers gain at least `min_inlier_gain`, the frame's final
+// cost is lower and no bone's status is worse; of those, the one whose bone ends nearest its
+// start replaces the result. Unlike the mirror check this asks
+// the image, not the joint: it serves image-only registration too, and a better fit may replace a
+// solution nearer neutral. Measured (see README, "Registration"): the real Kneel frames' perturbed
+// starts image-only 57 -> 60 of 60 (the tray's tilt reflection; 12-13 mm along the beam and 5 deg
+// off before); crude starts on poor images 91 -> 93 % (seed 7), 83 -> 85.5 % (seed 11). Gating on
+// the cost as well as the inliers matters on poor images, where a noisy femur's reflection can
+// gain inliers on clutter: with the inliers alone seed 11 fell to 81.5 %. Frames the tracker
+// continues and the pose search's refinements do not retry.
+struct ReflectionRetrySettings {
+  bool enabled = true;
+  double below_inlier_fraction = 0.85;
+  double min_inlier_gain = 0.05;
+};
+
 struct EdgeOffsetTrackingSettings {
   bool enabled = true;
   // Standard deviation of one frame's estimate (benchmark: 0.04-0.24 px within a trial).
@@ -259,6 +281,7 @@ struct RegistrationSettings {
   // scaled by the residual variance). Costs a few milliseconds per outer iteration.
   bool compute_covariance = false;
   MirrorCheckSettings mirror_check;
+  ReflectionRetrySettings reflection_retry;
   DepthRetrySettings depth_retry;
   imaging::EdgeMapSettings edges;
   QualitySettings quality;
@@ -434,6 +457,11 @@ class Registrar {
     double max_deviation;
   };
 
+  // The reflection retry (ReflectionRetrySettings) of `result`, solved from these arguments.
+  void retryReflections(const std::vector<ViewImage>& views,
+                        const std::vector<geometry::Pose>& initial_poses,
+                        const std::vector<bool>& loaded, const EdgeOffsetPriors& offset_priors,
+                        RegistrationResult* result) const;
   // solveFrom, then the mirror check (single view).
   RegistrationResult solveChecked(const std::vector<ViewImage>& views,
                                   const std::vector<geometry::Pose>& initial_poses,

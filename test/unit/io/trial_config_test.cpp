@@ -360,6 +360,7 @@ registration:
                  tracking_turn_max_difference_deg: 4, min_neutral_gain: 0.25,
                  abandon_cost_ratio: 3.5, abandon_deviation_excess: 0.5,
                  start_deviation_excess: 2.5}
+  reflection_retry: {enabled: false, below_inlier_fraction: 0.7, min_inlier_gain: 0.1}
   depth_retry: {enabled: false, shifts_mm: [-10, 10, -25]}
   quality: {relative_inlier_drop: 0.2, relative_inlier_spread: 2.5, relative_inlier_window: 10,
             relative_inlier_min_frames: 5, relative_inlier_trend_frames: 6}
@@ -383,6 +384,9 @@ registration:
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.start_deviation_excess, 2.5);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_difference_deg,
                    registration::MirrorCheckSettings().min_difference_deg);
+  EXPECT_FALSE(c.registration.reflection_retry.enabled);
+  EXPECT_DOUBLE_EQ(c.registration.reflection_retry.below_inlier_fraction, 0.7);
+  EXPECT_DOUBLE_EQ(c.registration.reflection_retry.min_inlier_gain, 0.1);
   EXPECT_FALSE(c.registration.depth_retry.enabled);
   EXPECT_EQ(c.registration.depth_retry.shifts_mm, (std::vector<double>{-10.0, 10.0, -25.0}));
   EXPECT_FALSE(c.registration.edges.thresholds_skip_saturated_borders);
@@ -446,6 +450,10 @@ registration:
                              "abandon_deviation_excess > 0");
   expectRegistrationRejected("{mirror_check: {start_deviation_excess: .nan}}",
                              "start_deviation_excess > 0");
+  expectRegistrationRejected("{reflection_retry: {below_inlier_fraction: 1.5}}",
+                             "reflection_retry needs below_inlier_fraction in [0, 1]");
+  expectRegistrationRejected("{reflection_retry: {min_inlier_gain: -0.1}}", "min_inlier_gain >= 0");
+  expectRegistrationRejected("{reflection_retry: {min_inlier_gains: 0.1}}", "min_inlier_gains");
   expectRegistrationRejected("{depth_retry: {shifts_mm: [-15, 0]}}",
                              "depth_retry: shifts_mm must be finite and non-zero");
   expectRegistrationRejected("{quality: {relative_inlier_drop: -0.1}}",
@@ -506,6 +514,11 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.registration.mirror_check.mirror_reflection, d.mirror_check.mirror_reflection);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.tracking_turn_max_difference_deg,
                    d.mirror_check.tracking_turn_max_difference_deg);
+  EXPECT_EQ(c.registration.reflection_retry.enabled, d.reflection_retry.enabled);
+  EXPECT_DOUBLE_EQ(c.registration.reflection_retry.below_inlier_fraction,
+                   d.reflection_retry.below_inlier_fraction);
+  EXPECT_DOUBLE_EQ(c.registration.reflection_retry.min_inlier_gain,
+                   d.reflection_retry.min_inlier_gain);
   EXPECT_EQ(c.registration.depth_retry.enabled, d.depth_retry.enabled);
   EXPECT_EQ(c.registration.depth_retry.shifts_mm, d.depth_retry.shifts_mm);
   EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_drop, d.quality.relative_inlier_drop);
