@@ -663,7 +663,7 @@ void Registrar::retryReflections(const std::vector<ViewImage>& views,
   SolveCounts counts(*result);
   for (std::size_t b = 0; b < result->poses.size(); ++b) {
     const double inliers = result->quality[b].contour_inlier_fraction;
-    if (result->diverged[b] || !(inliers < retry_settings.below_inlier_fraction)) continue;
+    if (!(inliers < retry_settings.below_inlier_fraction)) continue;
     const geometry::Pose pose = camera_from_fixed * result->poses[b];
     const std::array<geometry::Pose, 3> candidates = {
         mirroredAcrossBeam(pose), turnReflectedAcrossBeam(pose), tiltReflectedAcrossBeam(pose)};
