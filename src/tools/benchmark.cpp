@@ -756,15 +756,16 @@ int main(int argc, char** argv) {
       po::value(&settings.reflection_retry.enabled)
           ->default_value(settings.reflection_retry.enabled),
       "single view: a bone whose contour inlier fraction is below --reflection-retry-below-inliers "
-      "is solved again from its reflections across the beam; the best is kept if it gains "
-      "--reflection-retry-min-gain inliers at a lower cost (true/false)")(
-      "reflection-retry-below-inliers",
-      po::value(&settings.reflection_retry.below_inlier_fraction)
-          ->default_value(settings.reflection_retry.below_inlier_fraction),
-      "the reflection retry's gate")("reflection-retry-min-gain",
-                                     po::value(&settings.reflection_retry.min_inlier_gain)
-                                         ->default_value(settings.reflection_retry.min_inlier_gain),
-                                     "the inlier fraction a reflection must gain to be kept")(
+      "is solved again from its reflections across the beam; of those that gain "
+      "--reflection-retry-min-gain inliers at a lower cost, the one ending nearest its start is "
+      "kept (true/false)")("reflection-retry-below-inliers",
+                           po::value(&settings.reflection_retry.below_inlier_fraction)
+                               ->default_value(settings.reflection_retry.below_inlier_fraction),
+                           "the reflection retry's gate")(
+      "reflection-retry-min-gain",
+      po::value(&settings.reflection_retry.min_inlier_gain)
+          ->default_value(settings.reflection_retry.min_inlier_gain),
+      "the inlier fraction a reflection must gain to be kept")(
       "depth-retry",
       po::value(&settings.depth_retry.enabled)->default_value(settings.depth_retry.enabled),
       "when a bone's status is not ok, solve again from the starts moved along the beam by "

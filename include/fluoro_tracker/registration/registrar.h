@@ -135,14 +135,14 @@ struct DepthRetrySettings {
 // (full mirror, turn reflection, tilt reflection) with the other bones at their results. A
 // candidate qualifies if its bone's inliers gain at least `min_inlier_gain`, the frame's final
 // cost is lower and no bone's status is worse; of those, the one whose bone ends nearest its
-// start replaces the result. Unlike the mirror check this asks
-// the image, not the joint: it serves image-only registration too, and a better fit may replace a
-// solution nearer neutral. Measured (see README, "Registration"): the real Kneel frames' perturbed
-// starts image-only 57 -> 60 of 60 (the tray's tilt reflection; 12-13 mm along the beam and 5 deg
-// off before); crude starts on poor images 91 -> 93 % (seed 7), 83 -> 85.5 % (seed 11). Gating on
-// the cost as well as the inliers matters on poor images, where a noisy femur's reflection can
-// gain inliers on clutter: with the inliers alone seed 11 fell to 81.5 %. Frames the tracker
-// continues and the pose search's refinements do not retry.
+// start replaces the result. Unlike the mirror check this asks the image, not the joint: it
+// serves image-only registration too, and a better fit may replace a solution nearer neutral.
+// Measured (see README, "Registration"): the real Kneel frames' perturbed starts image only
+// 57 -> 60 of 60 (the tray's tilt reflection; 12-14 mm along the beam and 4-5 deg off before);
+// crude starts on poor images 91 -> 93 % (seed 7), 83 -> 85 % (seed 11). Gating on the cost as
+// well as the inliers matters on poor images, where a noisy femur's reflection can gain inliers
+// on clutter: with the inliers alone seed 11 fell to 81.5 %. Frames the tracker continues and
+// the pose search's refinements do not retry.
 struct ReflectionRetrySettings {
   bool enabled = true;
   double below_inlier_fraction = 0.85;
