@@ -438,6 +438,18 @@ void addCovarianceQuality(const Eigen::Matrix<double, 6, 6>& covariance, const g
   quality->max_rotation_sd_rad = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
 }
 
+// Whether reflection `c` of a bone's candidate reflections (mirror_ambiguity.h) needs no solve of
+// its own: it lies within `min_difference` (rad) of the bone's own orientation `pose` (a bone
+// seen square to the beam is its own reflection) or of an earlier candidate (with a tray's turn
+// near zero its tilt reflection is its full mirror: one solve serves).
+bool repeatsAReflection(const std::vector<geometry::Pose>& candidates, std::size_t c,
+                        const geometry::Pose& pose, double min_difference) {
+  const auto near = [&](const geometry::Pose& other) {
+    return geometry::rotationAngleBetween(other.linear(), candidates[c].linear()) < min_difference;
+  };
+  return near(pose) || std::any_of(candidates.begin(), candidates.begin() + c, near);
+}
+
 // The setting among `values` whose YAML / command-line name (`name_of`) is `name`; throws
 // InputError naming `what` and the known names.
 template <typename Setting>
@@ -665,7 +677,7 @@ void Registrar::retryReflections(const std::vector<ViewImage>& views,
     const double inliers = result->quality[b].contour_inlier_fraction;
     if (!(inliers < retry_settings.below_inlier_fraction)) continue;
     const geometry::Pose pose = camera_from_fixed * result->poses[b];
-    const std::array<geometry::Pose, 3> candidates = {
+    const std::vector<geometry::Pose> candidates = {
         mirroredAcrossBeam(pose), turnReflectedAcrossBeam(pose), tiltReflectedAcrossBeam(pose)};
     const int first_trouble = resultRank(*result, settings_.quality).first;
     const double required_inliers = inliers + retry_settings.min_inlier_gain;
@@ -675,19 +687,9 @@ void Registrar::retryReflections(const std::vector<ViewImage>& views,
     std::optional<RegistrationResult> best;
     double best_distance = std::numeric_limits<double>::infinity();
     for (std::size_t c = 0; c < candidates.size(); ++c) {
-      const geometry::Pose& candidate = candidates[c];
-      // A reflection of a bone seen square to the beam is the bone itself; with its turn near
-      // zero, its tilt reflection is its full mirror: one solve serves.
-      if (geometry::rotationAngleBetween(candidate.linear(), pose.linear()) < min_difference)
-        continue;
-      const bool tried =
-          std::any_of(candidates.begin(), candidates.begin() + c, [&](const auto& other) {
-            return geometry::rotationAngleBetween(other.linear(), candidate.linear()) <
-                   min_difference;
-          });
-      if (tried) continue;
+      if (repeatsAReflection(candidates, c, pose, min_difference)) continue;
       std::vector<geometry::Pose> starts = result->poses;
-      starts[b] = camera_from_fixed.inverse() * candidate;
+      starts[b] = camera_from_fixed.inverse() * candidates[c];
       RegistrationResult retry = solveChecked(views, starts, loaded, offset_priors);
       counts.add(retry);
       if (retry.diverged[b] || !(retry.quality[b].contour_inlier_fraction > required_inliers) ||
@@ -745,17 +747,11 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
     bool replaced = false;
     for (std::size_t c = 0; c < candidates.size(); ++c) {
       const geometry::Pose& candidate = candidates[c];
-      const double difference = geometry::rotationAngleBetween(candidate.linear(), child.linear());
-      if (difference < min_difference ||
-          difference > geometry::degToRad(settings_.mirror_check.max_difference_deg)) {
+      if (geometry::rotationAngleBetween(candidate.linear(), child.linear()) >
+              geometry::degToRad(settings_.mirror_check.max_difference_deg) ||
+          repeatsAReflection(candidates, c, child, min_difference)) {
         continue;
       }
-      // With the tray's turn near zero, its tilt reflection is its full mirror: one solve serves.
-      const bool tried =
-          std::any_of(candidates.begin(), candidates.begin() + c, [&](const auto& o) {
-            return geometry::rotationAngleBetween(o.linear(), candidate.linear()) < min_difference;
-          });
-      if (tried) continue;
       std::vector<geometry::Pose> starts = result.poses;
       starts[joint.child] = camera_from_fixed.inverse() * candidate;
       if (deviation(starts) > required_deviation + settings_.mirror_check.start_deviation_excess) {
