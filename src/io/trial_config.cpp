@@ -313,7 +313,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   mirror.allowOnly({"enabled", "cost_tolerance", "min_difference_deg", "max_difference_deg",
                     "min_neutral_gain", "tracking_turn_max_difference_deg", "outer_iterations",
                     "solver_iterations", "turn_reflection", "mirror_reflection", "tilt_reflection",
-                    "abandon_cost_ratio", "abandon_deviation_excess", "start_deviation_excess"});
+                    "abandon_cost_ratio", "abandon_deviation_excess", "start_deviation_excess",
+                    "neutral_internal_rotation_per_flexion"});
   mirror.read("enabled", &r.mirror_check.enabled);
   mirror.read("cost_tolerance", &r.mirror_check.cost_tolerance);
   mirror.read("min_difference_deg", &r.mirror_check.min_difference_deg);
@@ -328,6 +329,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   mirror.read("abandon_cost_ratio", &r.mirror_check.abandon_cost_ratio);
   mirror.read("abandon_deviation_excess", &r.mirror_check.abandon_deviation_excess);
   mirror.read("start_deviation_excess", &r.mirror_check.start_deviation_excess);
+  mirror.read("neutral_internal_rotation_per_flexion",
+              &r.mirror_check.neutral_internal_rotation_per_flexion);
   const YamlSection reflection_retry = section.child("reflection_retry");
   reflection_retry.allowOnly({"enabled", "below_inlier_fraction", "min_inlier_gain"});
   reflection_retry.read("enabled", &r.reflection_retry.enabled);

@@ -1,5 +1,6 @@
 #include "fluoro_tracker/registration/mirror_ambiguity.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace fluoro_tracker {
@@ -44,9 +45,13 @@ geometry::Pose tiltReflectedAcrossBeam(const geometry::Pose& camera_from_mesh) {
 }
 
 double neutralDeviation(const constraints::LigamentSettings& ligaments,
-                        const kinematics::KneeCoordinates& coordinates) {
+                        const kinematics::KneeCoordinates& coordinates,
+                        double neutral_rotation_per_flexion) {
+  const double neutral_rotation_deg =
+      neutral_rotation_per_flexion * std::max(0.0, geometry::radToDeg(coordinates.flexion_rad));
   return inBoundUnits(geometry::radToDeg(coordinates.adduction_rad), ligaments.bounds[1]) +
-         inBoundUnits(geometry::radToDeg(coordinates.internal_rotation_rad), ligaments.bounds[2]);
+         inBoundUnits(geometry::radToDeg(coordinates.internal_rotation_rad) - neutral_rotation_deg,
+                      ligaments.bounds[2]);
 }
 
 }  // namespace registration

@@ -614,9 +614,15 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
       score -= jointPenalty(joint.quality.envelope_violation, joint.quality.penetration_m);
       // Between equally good fits (a mirror pose), the joint nearer neutral (see
       // Registrar's mirror check).
-      if (kinematics::hasKneeFrameCoordinates(registrar_->joints()[j].type)) {
+      // The neutral rotation that comes with flexion is the tibia's (a knee's).
+      const kinematics::JointType type = registrar_->joints()[j].type;
+      if (kinematics::hasKneeFrameCoordinates(type)) {
         score -= settings_.neutral_penalty_per_unit *
-                 neutralDeviation(registrar_->joints()[j].ligaments, joint.coordinates);
+                 neutralDeviation(
+                     registrar_->joints()[j].ligaments, joint.coordinates,
+                     type == kinematics::JointType::kKnee
+                         ? registrar_->settings().mirror_check.neutral_internal_rotation_per_flexion
+                         : 0.0);
       }
     }
     if (score > best_score) {

@@ -564,10 +564,11 @@ void RegistrationSettings::validate() const {
       !(mirror_check.tracking_turn_max_difference_deg >= 0.0) ||
       mirror_check.outer_iterations < 1 || mirror_check.solver_iterations < 1 ||
       !(mirror_check.abandon_cost_ratio > 0.0) || !(mirror_check.abandon_deviation_excess > 0.0) ||
-      !(mirror_check.start_deviation_excess > 0.0)) {
+      !(mirror_check.start_deviation_excess > 0.0) ||
+      !std::isfinite(mirror_check.neutral_internal_rotation_per_flexion)) {
     throw InputError(
         "registration: mirror_check needs cost_tolerance >= 0, min_difference_deg >= 0, "
-        "min_neutral_gain >= 0, "
+        "min_neutral_gain >= 0, a finite neutral_internal_rotation_per_flexion, "
         "max_difference_deg >= min_difference_deg, tracking_turn_max_difference_deg >= 0, "
         "outer_iterations >= 1, solver_iterations >= 1, abandon_cost_ratio > 0, "
         "abandon_deviation_excess > 0 and start_deviation_excess > 0");
@@ -724,7 +725,8 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
     if (joint.type != kinematics::JointType::kKnee) continue;
     const auto deviation = [&](const std::vector<geometry::Pose>& poses) {
       return neutralDeviation(joint.ligaments,
-                              joint.coordinates(poses[joint.parent], poses[joint.child]));
+                              joint.coordinates(poses[joint.parent], poses[joint.child]),
+                              settings_.mirror_check.neutral_internal_rotation_per_flexion);
     };
     const geometry::Pose child = camera_from_fixed * result.poses[joint.child];
     std::vector<geometry::Pose> candidates;

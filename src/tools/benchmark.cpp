@@ -801,6 +801,11 @@ int main(int argc, char** argv) {
       po::value(&settings.mirror_check.min_neutral_gain)
           ->default_value(settings.mirror_check.min_neutral_gain),
       "... and its joint is nearer neutral by more than this (units of the ligament bounds)")(
+      "neutral-rotation-per-flexion",
+      po::value(&settings.mirror_check.neutral_internal_rotation_per_flexion)
+          ->default_value(settings.mirror_check.neutral_internal_rotation_per_flexion),
+      "the knee's neutral internal rotation per degree of flexion, in that comparison and the "
+      "automatic search's (0: neutral at 0 deg at any flexion)")(
       "mirror-outer-iterations",
       po::value(&settings.mirror_check.outer_iterations)
           ->default_value(settings.mirror_check.outer_iterations),

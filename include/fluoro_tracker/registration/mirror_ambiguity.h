@@ -33,12 +33,15 @@ geometry::Pose turnReflectedAcrossBeam(const geometry::Pose& camera_from_mesh);
 geometry::Pose tiltReflectedAcrossBeam(const geometry::Pose& camera_from_mesh);
 
 // How far a joint is from neutral in the coordinates the mirror changes in a lateral view:
-// |adduction| and |internal rotation|, each in units of its ligament bound on that side (the
-// envelope's half-width when a bound is open). Of two poses that fit the image equally well,
-// the registrar keeps the one nearer neutral: the knee's varus-valgus and axial rotation stay
-// near neutral in most activities, while the mirror adds twice the view's obliquity to both.
+// |adduction| and |internal rotation - neutral rotation|, each in units of its ligament bound on
+// that side (the envelope's half-width when a bound is open), where the neutral rotation is
+// `neutral_rotation_per_flexion` degrees per degree of flexion (none in hyperextension). Of two
+// poses that fit the image equally well, the registrar keeps the one nearer neutral: the knee's
+// varus-valgus stays near 0 and its axial rotation near the rotation that comes with its
+// flexion in most activities, while the mirror adds twice the view's obliquity to both.
 double neutralDeviation(const constraints::LigamentSettings& ligaments,
-                        const kinematics::KneeCoordinates& coordinates);
+                        const kinematics::KneeCoordinates& coordinates,
+                        double neutral_rotation_per_flexion = 0.0);
 
 }  // namespace registration
 }  // namespace fluoro_tracker

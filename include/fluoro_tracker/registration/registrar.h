@@ -63,6 +63,17 @@ struct MirrorCheckSettings {
   // turn reflection 6 deg the other way are equally neutral, and the check used to swap such
   // pairs at random. Measured (`benchmark --conditions contact`): see README.
   double min_neutral_gain = 0.1;
+  // Neutral internal rotation per degree of flexion (degrees; neutral adduction stays 0). The
+  // tibia turns internally as the knee flexes: about 20 deg over 120 deg in natural knees, 3-8
+  // deg on average in total knees (fluoroscopic deep-knee-bend studies). With neutral at 0 deg at
+  // every flexion, trays truly turned 6-8 deg in deep flexion lost to their turn reflections at
+  // -4 to +1 deg, nearer 0: contact + ligaments from the standard protocol's starts scored 80 and
+  // 91 % on benchmark seeds 3 and 5 (held out from the check's design), below image terms alone.
+  // The prior cuts both ways. Measured on simulated knees that turn 8 deg by their deepest
+  // flexion and on knees that do not turn (README "Neutral turns with flexion"; 400 frames each):
+  // 0.03 won 22 frames on the first and lost 11 on the second, 0.05 won 24 and lost 21. The
+  // automatic search (PoseSearch) chooses between mirror hypotheses by the same neutral.
+  double neutral_internal_rotation_per_flexion = 0.03;
   int outer_iterations = 2;  // of the mirror's solve (finest scale, each stage)
   // Levenberg-Marquardt iterations per outer iteration of the mirror's solve (at most the
   // registration's own). Fewer save time but lose accuracy on poor images: 4 instead of 8

@@ -359,7 +359,7 @@ registration:
                  turn_reflection: false, mirror_reflection: false, tilt_reflection: false, max_difference_deg: 30,
                  tracking_turn_max_difference_deg: 4, min_neutral_gain: 0.25,
                  abandon_cost_ratio: 3.5, abandon_deviation_excess: 0.5,
-                 start_deviation_excess: 2.5}
+                 start_deviation_excess: 2.5, neutral_internal_rotation_per_flexion: 0.1}
   reflection_retry: {enabled: false, below_inlier_fraction: 0.7, min_inlier_gain: 0.1}
   depth_retry: {enabled: false, shifts_mm: [-10, 10, -25]}
   quality: {relative_inlier_drop: 0.2, relative_inlier_spread: 2.5, relative_inlier_window: 10,
@@ -382,6 +382,7 @@ registration:
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.abandon_cost_ratio, 3.5);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.abandon_deviation_excess, 0.5);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.start_deviation_excess, 2.5);
+  EXPECT_DOUBLE_EQ(c.registration.mirror_check.neutral_internal_rotation_per_flexion, 0.1);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_difference_deg,
                    registration::MirrorCheckSettings().min_difference_deg);
   EXPECT_FALSE(c.registration.reflection_retry.enabled);
@@ -445,6 +446,8 @@ registration:
   expectRegistrationRejected("{edge_offset_min_px: .nan}", "edge_offset_min_px must be a number");
   expectRegistrationRejected("{mirror_check: {cost_tolerance: -0.1}}", "mirror_check needs");
   expectRegistrationRejected("{mirror_check: {min_neutral_gain: -0.1}}", "min_neutral_gain >= 0");
+  expectRegistrationRejected("{mirror_check: {neutral_internal_rotation_per_flexion: .inf}}",
+                             "finite neutral_internal_rotation_per_flexion");
   expectRegistrationRejected("{mirror_check: {abandon_cost_ratio: 0}}", "abandon_cost_ratio > 0");
   expectRegistrationRejected("{mirror_check: {abandon_deviation_excess: -1}}",
                              "abandon_deviation_excess > 0");
@@ -514,6 +517,8 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.registration.mirror_check.mirror_reflection, d.mirror_check.mirror_reflection);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.tracking_turn_max_difference_deg,
                    d.mirror_check.tracking_turn_max_difference_deg);
+  EXPECT_DOUBLE_EQ(c.registration.mirror_check.neutral_internal_rotation_per_flexion,
+                   d.mirror_check.neutral_internal_rotation_per_flexion);
   EXPECT_EQ(c.registration.reflection_retry.enabled, d.reflection_retry.enabled);
   EXPECT_DOUBLE_EQ(c.registration.reflection_retry.below_inlier_fraction,
                    d.reflection_retry.below_inlier_fraction);

@@ -429,9 +429,14 @@ TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
       truth[0],
       camera.worldFromCamera() * registration::mirroredAcrossBeam(camera_from_fixed * truth[1])};
   const registration::JointModel knee = kneeJoint();
-  ASSERT_GT(registration::neutralDeviation(knee.ligaments, knee.coordinates(start[0], start[1])),
-            registration::neutralDeviation(knee.ligaments, knee.coordinates(truth[0], truth[1])));
   registration::RegistrationSettings settings;
+  // Neutral as the registrar measures it.
+  const auto deviation = [&](const std::vector<Pose>& poses) {
+    return registration::neutralDeviation(
+        knee.ligaments, knee.coordinates(poses[0], poses[1]),
+        settings.mirror_check.neutral_internal_rotation_per_flexion);
+  };
+  ASSERT_GT(deviation(start), deviation(truth));
   settings.mirror_check.enabled = false;
   settings.depth_retry.enabled = false;  // the mirror check alone
   const std::vector<registration::ViewImage> views = {{scene.frame.images[0], camera}};
@@ -451,9 +456,6 @@ TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
 
   // The mirror replaces the solution only when its joint is nearer neutral by more than
   // min_neutral_gain: just above this frame's gain, the check keeps the mirror start's result.
-  const auto deviation = [&](const std::vector<Pose>& poses) {
-    return registration::neutralDeviation(knee.ligaments, knee.coordinates(poses[0], poses[1]));
-  };
   const double gain = deviation(unchecked.poses) - deviation(checked.poses);
   ASSERT_GT(gain, settings.mirror_check.min_neutral_gain);
   settings.mirror_check.min_neutral_gain = gain + 0.01;
@@ -616,10 +618,58 @@ TEST(MirrorAmbiguity, MirrorKeepsTheSilhouetteOfASymmetricMeshAndNeutralIsMeasur
   kinematics::KneeCoordinates k;
   k.adduction_rad = geometry::degToRad(1.5);
   k.internal_rotation_rad = geometry::degToRad(-10.0);
-  k.flexion_rad = geometry::degToRad(90.0);  // not part of the measure
+  k.flexion_rad = geometry::degToRad(90.0);  // no part of the measure with neutral at 0 deg
   EXPECT_NEAR(registration::neutralDeviation(ligaments, k), 0.5 + 0.5, 1e-12);
+  // Neutral internal rotation 0.05 deg per degree of flexion: 4.5 deg at 90 deg, so -10 deg is
+  // 14.5 deg from it and 4.5 deg is neutral; none in hyperextension.
+  EXPECT_NEAR(registration::neutralDeviation(ligaments, k, 0.05), 0.5 + 14.5 / 20.0, 1e-12);
+  k.internal_rotation_rad = geometry::degToRad(4.5);
+  EXPECT_NEAR(registration::neutralDeviation(ligaments, k, 0.05), 0.5, 1e-12);
+  k.flexion_rad = geometry::degToRad(-5.0);
+  EXPECT_NEAR(registration::neutralDeviation(ligaments, k, 0.05), 0.5 + 4.5 / 20.0, 1e-12);
+  k.internal_rotation_rad = geometry::degToRad(-10.0);
   ligaments.bounds[2] = {-10.0, 30.0};  // the bound on the value's side is the unit
   EXPECT_NEAR(registration::neutralDeviation(ligaments, k), 0.5 + 1.0, 1e-12);
+}
+
+// Deep flexion (94 deg) with the tibia turned 8 deg internally, as the simulator's knee turns
+// (the benchmark's seed 3, trial 0, frame 12: its flexion range and view). Registered from the
+// truth, the tray's turn reflection fits about as well at about -2 deg; with neutral at 0 deg
+// whatever the flexion, the mirror check takes it, nearer 0; with neutral turning with flexion
+// (the default), the truth stays.
+TEST(Registrar, MirrorCheckKeepsATibiaTurnedAsTheKneeFlexes) {
+  sim::TrialSimulatorSettings s;
+  s.motion.frames = 25;
+  s.motion.max_flexion_deg = 93.5;
+  s.view_yaw_deg = -4.87;
+  s.view_roll_deg = 0.9;
+  s.seed = 3;
+  const SingleViewFrame scene(s, 12, 3);
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const Pose camera_from_fixed = scene.cameraFromFixed();
+  const registration::JointModel knee = kneeJoint();
+  const kinematics::KneeCoordinates true_knee = knee.coordinates(truth[0], truth[1]);
+  ASSERT_GT(geometry::radToDeg(true_knee.flexion_rad), 80.0);
+  ASSERT_GT(geometry::radToDeg(true_knee.internal_rotation_rad), 6.0);
+  registration::RegistrationSettings settings;
+  settings.mirror_check.neutral_internal_rotation_per_flexion = 0.0;
+  const auto at_zero =
+      registration::Registrar(scene.bones, settings, {knee}).solve(scene.views, truth);
+  ASSERT_FALSE(registration::meetsSuccessCriterion(
+      registration::poseError(at_zero.poses[1], truth[1], camera_from_fixed)))
+      << "with neutral at 0 deg the check must take the turn reflection for the test to mean "
+         "anything";
+  settings.mirror_check.neutral_internal_rotation_per_flexion =
+      registration::MirrorCheckSettings().neutral_internal_rotation_per_flexion;
+  ASSERT_GT(settings.mirror_check.neutral_internal_rotation_per_flexion, 0.0);
+  const auto turning =
+      registration::Registrar(scene.bones, settings, {knee}).solve(scene.views, truth);
+  for (int b = 0; b < 2; ++b) {
+    const registration::PoseError e =
+        registration::poseError(turning.poses[b], truth[b], camera_from_fixed);
+    EXPECT_TRUE(registration::meetsSuccessCriterion(e))
+        << scene.bones[b].name << ": rotation " << e.rotation_deg.transpose() << " deg";
+  }
 }
 
 TEST(Registrar, JointsMustNameTwoBonesOfTheRegistrar) {
