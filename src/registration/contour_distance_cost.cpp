@@ -18,30 +18,13 @@ ContourDistanceCost::ContourDistanceCost(const imaging::EdgeMap* edge_map,
       normals_(std::move(offset_directions)),
       centre_(centre),
       camera_from_fixed_(edge_map->camera().worldFromCamera().inverse()),
-      robust_scale_(robust_scale_px),
+      robust_(robust_scale_px),
       sqrt_weight_(std::sqrt(weight)),
       sampled_at_({6, 1}) {
   set_num_residuals(static_cast<int>(points_.size()));
   samples_.resize(points_.size());
   mutable_parameter_block_sizes()->push_back(6);
   mutable_parameter_block_sizes()->push_back(1);
-}
-
-double ContourDistanceCost::robustResidual(double d, double b, double* derivative) {
-  // Cauchy: rho(s) = b^2 log(1 + s / b^2), residual sign(d) sqrt(rho(d^2)): smooth through
-  // zero for a signed distance, and its square is rho whatever the sign.
-  const double ratio = d / b;
-  if (std::abs(ratio) < 1e-6) {
-    *derivative = 1.0;
-    return d;
-  }
-  // log1p was a tenth of a registration's time: log(1 + q) is cheaper and as exact where q is
-  // not small, and below 0.01 three terms of its series are exact to 3e-7 relative.
-  const double q = ratio * ratio;
-  const double log1p_q = q < 1e-2 ? q * (1.0 - q * (0.5 - q / 3.0)) : std::log(1.0 + q);
-  const double r = std::copysign(b * std::sqrt(log1p_q), d);
-  *derivative = d / (r * (1.0 + q));
-  return r;
 }
 
 bool ContourDistanceCost::Evaluate(double const* const* parameters, double* residuals,
@@ -69,11 +52,12 @@ bool ContourDistanceCost::Evaluate(double const* const* parameters, double* resi
       sample.dv = 0.0;
       sample.valid = pc.z() > 0.0;
       if (sample.valid) {
-        const double u = camera.fx() * pc.x() / pc.z() + camera.cx() + offset * normals_[i].x();
-        const double v = camera.fy() * pc.y() / pc.z() + camera.cy() + offset * normals_[i].y();
+        const double inv_z = 1.0 / pc.z();
+        const double u = camera.fx() * pc.x() * inv_z + camera.cx() + offset * normals_[i].x();
+        const double v = camera.fy() * pc.y() * inv_z + camera.cy() + offset * normals_[i].y();
         sample.valid = edge_map_->sample(u, v, &distance, &sample.du, &sample.dv);
       }
-      sample.residual = sqrt_weight_ * robustResidual(distance, robust_scale_, &sample.slope);
+      sample.residual = sqrt_weight_ * robust_(distance, &sample.slope);
     }
     residuals[i] = sample.residual;
     const double slope = sample.slope;

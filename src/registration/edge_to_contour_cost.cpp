@@ -16,7 +16,7 @@ EdgeToContourCost::EdgeToContourCost(const geometry::XrayCamera& camera, std::ve
       camera_from_fixed_(camera.worldFromCamera().inverse()),
       pairs_(std::move(pairs)),
       centre_(centre),
-      robust_scale_(robust_scale_px),
+      robust_(robust_scale_px),
       sqrt_weight_(std::sqrt(weight)) {
   set_num_residuals(static_cast<int>(pairs_.size()));
   mutable_parameter_block_sizes()->push_back(6);
@@ -45,8 +45,7 @@ bool EdgeToContourCost::Evaluate(double const* const* parameters, double* residu
                             camera_.fy() * pc.y() * inv_z + camera_.cy());
     const double distance = pair.normal.dot(pair.edge_pixel - u) - offset * pair.offset_gain;
     double slope = 0.0;
-    residuals[i] =
-        sqrt_weight_ * ContourDistanceCost::robustResidual(distance, robust_scale_, &slope);
+    residuals[i] = sqrt_weight_ * robust_(distance, &slope);
     if (jac_offset != nullptr) jac_offset[i] = -sqrt_weight_ * slope * pair.offset_gain;
     if (jac == nullptr) continue;
     // d(distance)/d(camera point) = -n · d(pixel)/d(point).

@@ -6,6 +6,7 @@
 
 #include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/imaging/edge_map.h"
+#include "fluoro_tracker/registration/cauchy_residual.h"
 #include "fluoro_tracker/registration/evaluation_point.h"
 
 namespace fluoro_tracker {
@@ -34,9 +35,6 @@ class ContourDistanceCost : public ceres::CostFunction {
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
-  // Robustified residual sqrt(rho(d^2)) and its derivative with respect to d.
-  static double robustResidual(double distance, double scale, double* derivative);
-
  private:
   // One contour point's look-up in the edge map and its robustified residual.
   struct Sample {
@@ -52,7 +50,7 @@ class ContourDistanceCost : public ceres::CostFunction {
   std::vector<Eigen::Vector2d> normals_;
   Eigen::Vector3d centre_;
   geometry::Pose camera_from_fixed_;
-  double robust_scale_;
+  CauchyResidual robust_;
   double sqrt_weight_;
   // The last evaluation's samples and the parameters (increment, offset) they were taken at.
   mutable std::vector<Sample> samples_;

@@ -6,6 +6,7 @@
 
 #include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/geometry/xray_camera.h"
+#include "fluoro_tracker/registration/cauchy_residual.h"
 
 namespace fluoro_tracker {
 namespace registration {
@@ -37,7 +38,7 @@ class EdgeToContourCost : public ceres::CostFunction {
   geometry::Pose camera_from_fixed_;
   std::vector<Pair> pairs_;
   Eigen::Vector3d centre_;
-  double robust_scale_;
+  CauchyResidual robust_;
   double sqrt_weight_;
 };
 
