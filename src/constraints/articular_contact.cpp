@@ -255,6 +255,14 @@ double ArticularContact::penalty(double measure, double* d_penalty_d_measure) co
 
 ContactFigures ArticularContact::figures(const geometry::Pose& parent_pose,
                                          const geometry::Pose& child_pose, bool with_points) const {
+  ContactFigures f = sampledFigures(parent_pose, child_pose, with_points);
+  addSeparation(parent_pose, child_pose, &f);
+  return f;
+}
+
+ContactFigures ArticularContact::sampledFigures(const geometry::Pose& parent_pose,
+                                                const geometry::Pose& child_pose,
+                                                bool with_points) const {
   ContactFigures f;
   const geometry::Pose child_from_parent = child_pose.inverse() * parent_pose;
   std::vector<double> distances(samples_.size());
@@ -279,22 +287,25 @@ ContactFigures ArticularContact::figures(const geometry::Pose& parent_pose,
       if (distances[i] < 0.0) f.points.push_back({parent_pose * samples_[i], -distances[i]});
     }
   }
+  return f;
+}
 
+void ArticularContact::addSeparation(const geometry::Pose& parent_pose,
+                                     const geometry::Pose& child_pose, ContactFigures* f) const {
   const fcl::CollisionObjectd parent(parent_bvh_, parent_pose.linear(), parent_pose.translation());
   const fcl::CollisionObjectd child(child_bvh_, child_pose.linear(), child_pose.translation());
   fcl::CollisionRequestd collision_request;
   fcl::CollisionResultd collision_result;
   fcl::collide(&parent, &child, collision_request, collision_result);
-  f.in_collision = collision_result.isCollision();
-  if (f.in_collision) {
-    f.min_distance_m = -f.max_depth_m;
+  f->in_collision = collision_result.isCollision();
+  if (f->in_collision) {
+    f->min_distance_m = -f->max_depth_m;
   } else {
     fcl::DistanceRequestd distance_request;
     fcl::DistanceResultd distance_result;
     fcl::distance(&parent, &child, distance_request, distance_result);
-    f.min_distance_m = distance_result.min_distance;
+    f->min_distance_m = distance_result.min_distance;
   }
-  return f;
 }
 
 }  // namespace constraints

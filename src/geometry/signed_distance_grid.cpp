@@ -234,6 +234,19 @@ SignedDistanceGrid::SignedDistanceGrid(const Mesh& mesh, const SignedDistanceGri
 
   values_.resize(count);
   for (std::size_t i = 0; i < count; ++i) values_[i] = static_cast<float>(signed_distance[i]);
+  // Outside the box distance() interpolates between nodes of the two outermost layers (its
+  // clamped point lies on a face) and adds the gap: never less than their smallest value.
+  const auto outer = [&](int i, int n) { return i <= 1 || i >= n - 2; };
+  outside_lower_bound_ = std::numeric_limits<double>::infinity();
+  for (int z = 0; z < size_.z(); ++z) {
+    for (int y = 0; y < size_.y(); ++y) {
+      for (int x = 0; x < size_.x(); ++x) {
+        if (outer(x, size_.x()) || outer(y, size_.y()) || outer(z, size_.z())) {
+          outside_lower_bound_ = std::min(outside_lower_bound_, node(x, y, z));
+        }
+      }
+    }
+  }
 }
 
 double SignedDistanceGrid::interpolate(const Eigen::Vector3d& p, Eigen::Vector3d* gradient) const {

@@ -22,9 +22,17 @@ ContactCost::ContactCost(const constraints::ArticularContact* contact,
   // A separation measure looks for the nearest sample wherever it is: no culling.
   const bool keep_all = contact_->settings().measure == constraints::ContactMeasure::kSeparation;
   const double reach = reach_m + contact_->settings().dead_band_mm * 1e-3;
+  // Samples outside the grid's box lie beyond its margin, farther than the reach: left out
+  // without a look-up (the same samples as with one). Many of a femoral component's are (its
+  // flange, the condyles not over the insert): building the term took 275 -> 184 us (crude
+  // starts, simulated knee), and it is built every outer iteration.
+  const geometry::SignedDistanceGrid& grid = contact_->grid();
+  const bool skip_outside = !keep_all && grid.outsideLowerBound() > reach;
   std::vector<int> kept;
   for (std::size_t i = 0; i < samples.size(); ++i) {
-    if (keep_all || contact_->grid().distance(child_from_parent * samples[i]) <= reach) {
+    const Eigen::Vector3d in_child = child_from_parent * samples[i];
+    if (skip_outside && !grid.contains(in_child)) continue;
+    if (keep_all || grid.distance(in_child) <= reach) {
       kept.push_back(static_cast<int>(i));
       parent_points_.push_back(parent_pose * samples[i]);
     }

@@ -582,7 +582,7 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
       const geometry::Pose& child = poses[joint.child];
       score -= jointPenalty(
           joint.ligaments.enabled ? joint.envelopeViolation(parent, child) : 0.0,
-          joint.contact ? joint.contact->figures(parent, child, false).max_depth_m : 0.0);
+          joint.contact ? joint.contact->sampledFigures(parent, child).max_depth_m : 0.0);
     }
     combinations.emplace_back(score, choice);
     std::size_t b = 0;

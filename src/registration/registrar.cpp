@@ -612,6 +612,22 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
                                     const std::vector<geometry::Pose>& initial_poses,
                                     const std::vector<bool>& loaded,
                                     const EdgeOffsetPriors& offset_priors) const {
+  RegistrationResult result = solveWithRetries(views, initial_poses, loaded, offset_priors);
+  // The solutions compared on the way carry the sampled contact figures only (finish).
+  for (std::size_t j = 0; j < joints_.size() && j < result.joints.size(); ++j) {
+    const JointModel& joint = joints_[j];
+    JointResult& joint_result = result.joints[j];
+    if (!joint.contact || !joint_result.has_contact) continue;
+    joint.contact->addSeparation(result.poses[joint.parent], result.poses[joint.child],
+                                 &joint_result.contact);
+  }
+  return result;
+}
+
+RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& views,
+                                               const std::vector<geometry::Pose>& initial_poses,
+                                               const std::vector<bool>& loaded,
+                                               const EdgeOffsetPriors& offset_priors) const {
   if (!offset_priors.empty()) {
     bool valid = offset_priors.size() == bones_.size();
     for (const auto& per_view : offset_priors) {
@@ -1164,7 +1180,8 @@ void Registrar::finish(const std::vector<ViewImage>& views, Solution* solution) 
     joint_result.coordinates = joint.coordinates(parent_pose, child_pose);
     if (joint.contact) {
       joint_result.has_contact = true;
-      joint_result.contact = joint.contact->figures(parent_pose, child_pose, true);
+      // FCL's separation is added to the solution solve() returns only (addSeparation).
+      joint_result.contact = joint.contact->sampledFigures(parent_pose, child_pose, true);
       joint_result.quality.penetration_m = joint_result.contact.max_depth_m;
     }
     if (joint.ligaments.enabled) {

@@ -126,8 +126,19 @@ class ArticularContact {
   double penalty(double measure, double* d_penalty_d_measure) const;
 
   // Figures with the bones at the given poses (any common frame); contact points if asked.
+  // sampledFigures() and then addSeparation().
   ContactFigures figures(const geometry::Pose& parent_pose, const geometry::Pose& child_pose,
                          bool with_points = false) const;
+  // Every figure but FCL's two (in_collision and min_distance_m stay at their defaults): those
+  // from the surface samples alone.
+  ContactFigures sampledFigures(const geometry::Pose& parent_pose, const geometry::Pose& child_pose,
+                                bool with_points = false) const;
+  // FCL's collision test and, when the surfaces are apart, their distance, into figures that
+  // sampledFigures() made at the same poses. Three quarters of figures()' time (0.56 of 0.76
+  // ms with the simulated femoral component and insert), so a caller that compares many
+  // solutions adds it to the one it keeps.
+  void addSeparation(const geometry::Pose& parent_pose, const geometry::Pose& child_pose,
+                     ContactFigures* figures) const;
 
  private:
   struct Triangle {

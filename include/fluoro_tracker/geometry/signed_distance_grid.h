@@ -44,6 +44,9 @@ class SignedDistanceGrid {
   double distance(const Eigen::Vector3d& p, Eigen::Vector3d* gradient = nullptr) const;
 
   bool contains(const Eigen::Vector3d& p) const { return box_.contains(p); }
+  // distance() is at least this anywhere outside box() (about the settings' margin_m), so a
+  // caller that only wants points nearer than that can skip the look-up of points outside.
+  double outsideLowerBound() const { return outside_lower_bound_; }
   const Eigen::AlignedBox3d& box() const { return box_; }
   double spacing() const { return spacing_; }
   Eigen::Vector3i size() const { return size_; }
@@ -58,6 +61,7 @@ class SignedDistanceGrid {
   double spacing_ = 0.0;
   Eigen::Vector3i size_ = Eigen::Vector3i::Zero();
   std::vector<float> values_;
+  double outside_lower_bound_ = 0.0;
 };
 
 }  // namespace geometry

@@ -109,6 +109,33 @@ TEST(ArticularContact, SeparatedSurfacesReportNoPenetrationAndTheirGap) {
             0.0);
 }
 
+// figures() is sampledFigures() with FCL's collision and separation added: the registrar
+// compares solutions by the sampled figures and adds FCL's to the one it keeps.
+TEST(ArticularContact, SampledFiguresAndSeparationMakeUpTheFigures) {
+  const Mesh small_sphere = sim::uvSphere(0.015, 32, 64);
+  const Mesh big_sphere = sim::uvSphere(0.025, 32, 64);
+  const ArticularContact contact(small_sphere, big_sphere,
+                                 withMeasure(ContactMeasure::kQuasiVolume));
+  for (double x : {0.042, 0.038}) {  // apart by 2 mm; overlapping by 2 mm
+    const Pose parent = translation(x, 0, 0);
+    const ContactFigures whole = contact.figures(parent, Pose::Identity(), true);
+    ContactFigures sampled = contact.sampledFigures(parent, Pose::Identity(), true);
+    EXPECT_FALSE(sampled.in_collision) << x;
+    EXPECT_EQ(sampled.min_distance_m, 0.0) << x;
+    contact.addSeparation(parent, Pose::Identity(), &sampled);
+    EXPECT_EQ(sampled.in_collision, whole.in_collision) << x;
+    EXPECT_EQ(sampled.min_distance_m, whole.min_distance_m) << x;
+    EXPECT_EQ(sampled.max_depth_m, whole.max_depth_m) << x;
+    EXPECT_EQ(sampled.area_m2, whole.area_m2) << x;
+    EXPECT_EQ(sampled.quasi_volume_m3, whole.quasi_volume_m3) << x;
+    EXPECT_EQ(sampled.measure, whole.measure) << x;
+    EXPECT_EQ(sampled.penalty, whole.penalty) << x;
+    EXPECT_EQ(sampled.points.size(), whole.points.size()) << x;
+  }
+  EXPECT_TRUE(contact.figures(translation(0.038, 0, 0), Pose::Identity()).in_collision);
+  EXPECT_GT(contact.figures(translation(0.042, 0, 0), Pose::Identity()).min_distance_m, 0.001);
+}
+
 TEST(ArticularContact, DeadBandAndExponentShapeThePenalty) {
   const Mesh sphere = sim::uvSphere(0.02, 64, 128);
   const Mesh block = sim::box(Eigen::Vector3d(0.04, 0.01, 0.04));

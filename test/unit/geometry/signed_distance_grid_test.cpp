@@ -47,6 +47,31 @@ TEST(SignedDistanceGrid, IsExactForABoxFaceAndSignsTheCorners) {
   EXPECT_LT(grid.distance(Eigen::Vector3d(0.0295, 0.0095, 0.0195)), 0.0);
 }
 
+// Anywhere outside the box the distance is at least outsideLowerBound(), which is about the
+// margin (callers skip points outside the box that they would drop as too far anyway).
+TEST(SignedDistanceGrid, OutsideTheBoxTheDistanceIsAtLeastItsLowerBound) {
+  const Mesh block = sim::box(Eigen::Vector3d(0.03, 0.01, 0.02));
+  SignedDistanceGridSettings settings;
+  settings.margin_m = 0.006;
+  const SignedDistanceGrid grid(block, settings);
+  const double bound = grid.outsideLowerBound();
+  EXPECT_GT(bound, 0.5 * settings.margin_m);
+  EXPECT_LT(bound, settings.margin_m + settings.spacing_m);
+  const Eigen::Vector3d centre = grid.box().center();
+  const Eigen::Vector3d half = 0.5 * grid.box().sizes();
+  int outside = 0;
+  for (int i = 0; i < 2000; ++i) {
+    // Points on and beyond the box's faces, edges and corners, up to 3 mm out.
+    const Eigen::Vector3d unit = Eigen::Vector3d::Random();
+    const Eigen::Vector3d p =
+        centre + unit.cwiseProduct(half + Eigen::Vector3d::Constant(0.003 * std::abs(unit.x())));
+    if (grid.contains(p)) continue;
+    ++outside;
+    EXPECT_GE(grid.distance(p), bound) << p.transpose();
+  }
+  EXPECT_GT(outside, 100);
+}
+
 TEST(SignedDistanceGrid, RejectsBadSettingsAndEmptyMeshes) {
   SignedDistanceGridSettings settings;
   settings.exact_band_m = settings.spacing_m;

@@ -118,8 +118,12 @@ TEST(Registrar, ContactRelievesPenetrationAndIsReported) {
   ASSERT_EQ(result.joints.size(), 1u);
   ASSERT_TRUE(result.joints[0].has_contact);
   EXPECT_LT(result.joints[0].contact.max_depth_m, 1e-4);
-  EXPECT_NEAR(result.joints[0].contact.max_depth_m,
-              contact->figures(result.poses[0], result.poses[1]).max_depth_m, 1e-12);
+  // Every figure of the returned solution, FCL's too (added to the solution kept only).
+  const constraints::ContactFigures at_result = contact->figures(result.poses[0], result.poses[1]);
+  EXPECT_NEAR(result.joints[0].contact.max_depth_m, at_result.max_depth_m, 1e-12);
+  EXPECT_EQ(result.joints[0].contact.in_collision, at_result.in_collision);
+  EXPECT_NEAR(result.joints[0].contact.min_distance_m, at_result.min_distance_m, 1e-12);
+  EXPECT_NE(result.joints[0].contact.min_distance_m, 0.0);
   const Pose camera_from_fixed = scene.cameraFromFixed();
   for (int b = 0; b < 2; ++b) {
     EXPECT_TRUE(registration::meetsSuccessCriterion(
