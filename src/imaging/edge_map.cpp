@@ -181,17 +181,21 @@ cv::Mat saturatedAreaBorders(const cv::Mat& grey) {
 // The values of `values` where `excluded` is zero (all of them when it is empty), as one row.
 cv::Mat keptValues(const cv::Mat& values, const cv::Mat& excluded) {
   if (excluded.empty()) return values;
-  std::vector<float> kept;
-  kept.reserve(values.total());
+  // Written straight into the row it returns (a vector grown value by value and then copied
+  // into a Mat was a fifth of the thresholds' time).
+  cv::Mat kept(1, static_cast<int>(values.total()), CV_32F);
+  float* out = kept.ptr<float>(0);
+  int count = 0;
   for (int v = 0; v < values.rows; ++v) {
     const float* x = values.ptr<float>(v);
     const std::uint8_t* e = excluded.ptr<std::uint8_t>(v);
     for (int u = 0; u < values.cols; ++u) {
-      if (e[u] == 0) kept.push_back(x[u]);
+      out[count] = x[u];
+      count += e[u] == 0;
     }
   }
-  if (kept.empty()) return values;
-  return cv::Mat(kept, true).reshape(1, 1);
+  if (count == 0) return values;
+  return kept.colRange(0, count);
 }
 
 // The standard deviation of one gradient component under the local noise, per kTilePx tile:

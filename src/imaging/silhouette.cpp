@@ -24,7 +24,7 @@ int clampedCeil(double x, int low, int high) {
 
 }  // namespace
 
-SilhouetteModel::SilhouetteModel(const geometry::Mesh& mesh) : mesh_(mesh) {
+SilhouetteModel::SilhouetteModel(const geometry::Mesh& mesh) : mesh_(mesh), bounds_(mesh.bounds()) {
   if (!mesh.topology().isClosed()) {
     throw InputError("silhouette: the mesh must be closed and consistently oriented");
   }

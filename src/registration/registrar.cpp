@@ -33,7 +33,7 @@ bool extendByProjectedBounds(const geometry::XrayCamera& camera, const BoneModel
                              const geometry::Pose& pose, double min_depth_m,
                              Eigen::AlignedBox2d* box) {
   const geometry::Pose camera_from_bone = camera.worldFromCamera().inverse() * pose;
-  const Eigen::AlignedBox3d bounds = bone.silhouette->mesh().bounds();
+  const Eigen::AlignedBox3d& bounds = bone.silhouette->bounds();
   for (int corner = 0; corner < 8; ++corner) {
     const Eigen::Vector3d p =
         camera_from_bone * bounds.corner(static_cast<Eigen::AlignedBox3d::CornerType>(corner));

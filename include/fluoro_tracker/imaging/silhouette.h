@@ -31,6 +31,8 @@ class SilhouetteModel {
   explicit SilhouetteModel(const geometry::Mesh& mesh);
 
   const geometry::Mesh& mesh() const { return mesh_; }
+  // The mesh's bounding box (its frame), kept: registration asks for it every outer iteration.
+  const Eigen::AlignedBox3d& bounds() const { return bounds_; }
 
   // Contour samples about every `spacing_px` pixels of `camera`. Points outside the camera's
   // image are dropped.
@@ -70,6 +72,7 @@ class SilhouetteModel {
     int face_right;
   };
   geometry::Mesh mesh_;
+  Eigen::AlignedBox3d bounds_;
   std::vector<Edge> edges_;
 };
 
