@@ -7,6 +7,7 @@
 #include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/geometry/xray_camera.h"
 #include "fluoro_tracker/registration/cauchy_residual.h"
+#include "fluoro_tracker/registration/evaluation_point.h"
 
 namespace fluoro_tracker {
 namespace registration {
@@ -17,7 +18,7 @@ namespace registration {
 // Cauchy-robustified and weighted. It penalises a projection that is smaller than the edges
 // around it, which the forward term alone would reward. Parameter blocks as the forward term's:
 // the pose increment and the edge offset (which moves the tangent line outward). Analytic
-// Jacobians.
+// Jacobians. Not thread-safe: it keeps the last evaluation's residuals.
 class EdgeToContourCost : public ceres::CostFunction {
  public:
   struct Pair {
@@ -40,6 +41,11 @@ class EdgeToContourCost : public ceres::CostFunction {
   Eigen::Vector3d centre_;
   CauchyResidual robust_;
   double sqrt_weight_;
+  // The last evaluation's residuals and d(residual)/d(distance) per pair, and the parameters
+  // (increment, offset) they were computed at.
+  mutable std::vector<double> residuals_;
+  mutable std::vector<double> slopes_;
+  mutable EvaluationPoint evaluated_at_;
 };
 
 }  // namespace registration

@@ -8,8 +8,9 @@ namespace registration {
 // The parameter values a cost function was last evaluated at. After an accepted step Ceres
 // evaluates the Jacobian at the candidate it has just costed without one: a cost that keeps its
 // per-sample work (ContourDistanceCost: its edge-map look-ups) can reuse it when the point has not
-// moved. (Tried on the contact cost's distance-grid look-ups too: 0.7 % fewer instructions, since
-// the cost alone then needs the grid's gradients as well; not kept.)
+// moved (EdgeToContourCost keeps its residuals and slopes the same way). (Tried on the contact
+// cost's distance-grid look-ups too: 0.7 % fewer instructions, since the cost alone then needs the
+// grid's gradients as well; not kept.)
 class EvaluationPoint {
  public:
   explicit EvaluationPoint(std::vector<int> block_sizes);
