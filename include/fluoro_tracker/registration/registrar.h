@@ -468,12 +468,12 @@ class Registrar {
     double max_deviation;
   };
 
-  // The reflection retry (ReflectionRetrySettings) of `result`, solved from these arguments.
   // solve() but FCL's contact separation, which it adds to the solution it returns.
   RegistrationResult solveWithRetries(const std::vector<ViewImage>& views,
                                       const std::vector<geometry::Pose>& initial_poses,
                                       const std::vector<bool>& loaded,
                                       const EdgeOffsetPriors& offset_priors) const;
+  // The reflection retry (ReflectionRetrySettings) of `result`, solved from these arguments.
   void retryReflections(const std::vector<ViewImage>& views,
                         const std::vector<geometry::Pose>& initial_poses,
                         const std::vector<bool>& loaded, const EdgeOffsetPriors& offset_priors,
