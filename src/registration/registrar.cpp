@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <initializer_list>
 #include <limits>
 #include <map>
@@ -163,6 +164,11 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
     int v;
     int sample;
   };
+  // The samples' positions in cell order, read in sequence by the search below.
+  std::vector<Eigen::Vector2d> positions_by_cell(samples_by_cell.size());
+  for (std::size_t k = 0; k < samples_by_cell.size(); ++k) {
+    positions_by_cell[k] = in_crop[samples_by_cell[k]];
+  }
   std::vector<Candidate> candidates;
   const double band_squared = band * band;
   for (int v = 0; v < edges.rows; ++v) {
@@ -170,22 +176,48 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
     const int cell_v = v / cell;
     const std::uint8_t* near_row = near_samples.data() + cell_v * grid_cols;
     for (int u = 0; u < edges.cols; ++u) {
+      // Edge pixels are a few per cent of the crop: eight at a time are skipped while none is set.
+      if (u + 8 <= edges.cols) {
+        std::uint64_t eight;
+        std::memcpy(&eight, e + u, sizeof(eight));
+        if (eight == 0) {
+          u += 7;
+          continue;
+        }
+      }
       if (e[u] == 0) continue;
       const int cell_u = u / cell;
       if (near_row[cell_u] == 0) continue;
+      const auto squared_distance = [&](int k) {
+        const double du = positions_by_cell[k].x() - u;
+        const double dv = positions_by_cell[k].y() - v;
+        return du * du + dv * dv;
+      };
+      // A bound from the pixel's own cell first, so that the 3 x 3 scan below skips the cells
+      // that lie wholly farther away. The scan keeps its order and its rule (the last of equally
+      // near samples wins), so the pairs are those of a full scan.
+      double bound = band_squared;
+      const int own = cell_v * grid_cols + cell_u;
+      for (int k = cell_start[own]; k < cell_start[own + 1]; ++k) {
+        bound = std::min(bound, squared_distance(k));
+      }
       double best = band_squared;
       int nearest = -1;
       for (int gv = std::max(0, cell_v - 1); gv <= std::min(grid_rows - 1, cell_v + 1); ++gv) {
+        const double dv = gv < cell_v   ? v - cell_v * cell
+                          : gv > cell_v ? (cell_v + 1) * cell - v
+                                        : 0.0;
         for (int gu = std::max(0, cell_u - 1); gu <= std::min(grid_cols - 1, cell_u + 1); ++gu) {
+          const double du = gu < cell_u   ? u - cell_u * cell
+                            : gu > cell_u ? (cell_u + 1) * cell - u
+                                          : 0.0;
+          if (du * du + dv * dv > bound) continue;
           const int g = gv * grid_cols + gu;
           for (int k = cell_start[g]; k < cell_start[g + 1]; ++k) {
-            const int j = samples_by_cell[k];
-            const double du = in_crop[j].x() - u;
-            const double dv = in_crop[j].y() - v;
-            const double squared = du * du + dv * dv;
+            const double squared = squared_distance(k);
             if (squared <= best) {
               best = squared;
-              nearest = j;
+              nearest = samples_by_cell[k];
             }
           }
         }
