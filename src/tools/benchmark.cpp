@@ -829,6 +829,9 @@ int main(int argc, char** argv) {
           ->default_value(settings.mirror_check.start_deviation_excess),
       "a mirror whose start is farther from neutral than the deviation it must beat by more than "
       "this is not solved (units of the ligament bounds; 1e9: never)")(
+      "edge-blur-px",
+      po::value(&settings.edges.blur_sigma_px)->default_value(settings.edges.blur_sigma_px),
+      "edges: Gaussian smoothing before Canny, pixels of each map's scale")(
       "clahe", po::value(&settings.edges.clahe)->default_value(settings.edges.clahe),
       "contrast-limited adaptive equalisation of each edge map's grey levels (true/false)")(
       "clahe-clip-limit",
