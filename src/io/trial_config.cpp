@@ -231,6 +231,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "edge_offset_prior_px",
                      "edge_offset_min_px",
                      "edge_offset_hold",
+                     "corner_rounding",
                      "edge_offset_tracking",
                      "contact_from_outer_iteration",
                      "stages",
@@ -287,6 +288,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("edge_offset_prior_px", &r.edge_offset_prior_px);
   section.read("edge_offset_min_px", &r.edge_offset_min_px);
   section.read("edge_offset_hold", &r.edge_offset_hold);
+  section.read("corner_rounding", &r.corner_rounding);
   const YamlSection offset_tracking = section.child("edge_offset_tracking");
   offset_tracking.allowOnly({"enabled", "frame_sd_px", "drift_px"});
   offset_tracking.read("enabled", &r.edge_offset_tracking.enabled);

@@ -12,10 +12,11 @@ ContourDistanceCost::ContourDistanceCost(const imaging::EdgeMap* edge_map,
                                          std::vector<Eigen::Vector3d> points_fixed,
                                          std::vector<Eigen::Vector2d> offset_directions,
                                          const Eigen::Vector3d& centre, double robust_scale_px,
-                                         double weight)
+                                         double weight, std::vector<Eigen::Vector2d> fixed_shifts)
     : edge_map_(edge_map),
       points_(std::move(points_fixed)),
       normals_(std::move(offset_directions)),
+      shifts_(std::move(fixed_shifts)),
       centre_(centre),
       camera_from_fixed_(edge_map->camera().worldFromCamera().inverse()),
       robust_(robust_scale_px),
@@ -53,8 +54,12 @@ bool ContourDistanceCost::Evaluate(double const* const* parameters, double* resi
       sample.valid = pc.z() > 0.0;
       if (sample.valid) {
         const double inv_z = 1.0 / pc.z();
-        const double u = camera.fx() * pc.x() * inv_z + camera.cx() + offset * normals_[i].x();
-        const double v = camera.fy() * pc.y() * inv_z + camera.cy() + offset * normals_[i].y();
+        double u = camera.fx() * pc.x() * inv_z + camera.cx() + offset * normals_[i].x();
+        double v = camera.fy() * pc.y() * inv_z + camera.cy() + offset * normals_[i].y();
+        if (!shifts_.empty()) {
+          u += shifts_[i].x();
+          v += shifts_[i].y();
+        }
         sample.valid = edge_map_->sample(u, v, &distance, &sample.du, &sample.dv);
       }
       sample.residual = sqrt_weight_ * robust_(distance, &sample.slope);

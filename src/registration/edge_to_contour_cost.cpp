@@ -53,7 +53,8 @@ bool EdgeToContourCost::Evaluate(double const* const* parameters, double* residu
     if (recompute) {
       const Eigen::Vector2d u(camera_.fx() * pc.x() * inv_z + camera_.cx(),
                               camera_.fy() * pc.y() * inv_z + camera_.cy());
-      const double distance = pair.normal.dot(pair.edge_pixel - u) - offset * pair.offset_gain;
+      const double distance =
+          pair.normal.dot(pair.edge_pixel - u) + pair.rounding - offset * pair.offset_gain;
       residuals_[i] = sqrt_weight_ * robust_(distance, &slopes_[i]);
     }
     residuals[i] = residuals_[i];

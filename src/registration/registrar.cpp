@@ -18,6 +18,7 @@
 #include "fluoro_tracker/registration/compressed_residuals_cost.h"
 #include "fluoro_tracker/registration/contact_cost.h"
 #include "fluoro_tracker/registration/contour_distance_cost.h"
+#include "fluoro_tracker/registration/corner_rounding.h"
 #include "fluoro_tracker/registration/edge_to_contour_cost.h"
 #include "fluoro_tracker/registration/ligament_cost.h"
 #include "fluoro_tracker/registration/mirror_ambiguity.h"
@@ -107,7 +108,7 @@ Eigen::Vector2d offsetDirection(const imaging::ContourPoint& c,
 std::vector<EdgeToContourCost::Pair> edgeContourPairs(
     const imaging::EdgeMap& map, const std::vector<imaging::ContourPoint>& contour,
     const geometry::Pose& pose, double band, std::size_t max_pairs,
-    RegistrationSettings::EdgeOffsetModel model) {
+    RegistrationSettings::EdgeOffsetModel model, const std::vector<double>& rounding) {
   // Work in the crop around the contour that the band can reach.
   Eigen::AlignedBox2d box;
   for (const auto& c : contour) box.extend(c.pixel);
@@ -233,7 +234,7 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
     const imaging::ContourPoint& sample = contour[c.sample];
     pairs.push_back({pose * sample.model_point, sample.normal,
                      map.edgePoint(c.u + crop.x, c.v + crop.y),
-                     sample.normal.dot(offsetDirection(sample, model))});
+                     sample.normal.dot(offsetDirection(sample, model)), rounding[c.sample]});
   }
   return pairs;
 }
@@ -997,9 +998,18 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
             std::vector<Eigen::Vector2d> offset_directions;
             points.reserve(contour.size());
             offset_directions.reserve(contour.size());
-            for (const auto& c : contour) {
+            // Corners are compared where the edge map's smoothing puts their edges once the
+            // contour is within a pixel, as the edge offset is (corner_rounding).
+            const bool round_corners =
+                settings_.corner_rounding && finest && (!settings_.edge_offset_hold || outer >= 1);
+            const std::vector<double> rounding =
+                cornerRounding(contour, round_corners ? settings_.edges.blur_sigma_px : 0.0);
+            std::vector<Eigen::Vector2d> shifts;
+            for (std::size_t k = 0; k < contour.size(); ++k) {
+              const auto& c = contour[k];
               points.push_back(pose * c.model_point);
               offset_directions.push_back(offsetDirection(c, settings_.edge_offset_model));
+              if (round_corners) shifts.push_back(-rounding[k] * c.normal);
             }
             points_in_views += static_cast<int>(points.size());
             const std::size_t forward_count = points.size();
@@ -1007,7 +1017,7 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
             const int bone = static_cast<int>(b);
             add_block(
                 new ContourDistanceCost(&maps[v], std::move(points), std::move(offset_directions),
-                                        centres[b], robust_scale, image_weight),
+                                        centres[b], robust_scale, image_weight, std::move(shifts)),
                 {increments[b].data(), offset}, {bone, -1}, true);
             // The offset is a fraction of a pixel: held, it is free only once the contour is
             // that close (see edge_offset_hold).
@@ -1030,7 +1040,7 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
             if (settings_.reverse_term_weight > 0.0) {
               auto pairs =
                   edgeContourPairs(maps[v], contour, pose, settings_.reverse_band_px * scale,
-                                   forward_count, settings_.edge_offset_model);
+                                   forward_count, settings_.edge_offset_model, rounding);
               if (!pairs.empty()) {
                 add_block(new EdgeToContourCost(camera, std::move(pairs), centres[b], robust_scale,
                                                 settings_.reverse_term_weight * image_weight),

@@ -851,6 +851,10 @@ int main(int argc, char** argv) {
       "edge-offset-min-px",
       po::value(&settings.edge_offset_min_px)->default_value(settings.edge_offset_min_px),
       "lowest edge offset a solve may end on, pixels (+ inward; -inf: no floor)")(
+      "corner-rounding",
+      po::value(&settings.corner_rounding)->default_value(settings.corner_rounding),
+      "compare the contour near sharp turns where the edge map's smoothing puts the edges "
+      "(true/false)")(
       "edge-offset-hold",
       po::value(&settings.edge_offset_hold)->default_value(settings.edge_offset_hold),
       "hold the edge offset at zero until the finest scale's second outer iteration "

@@ -30,7 +30,8 @@ class ContourDistanceCost : public ceres::CostFunction {
   // edge offset parameter.
   ContourDistanceCost(const imaging::EdgeMap* edge_map, std::vector<Eigen::Vector3d> points_fixed,
                       std::vector<Eigen::Vector2d> offset_directions, const Eigen::Vector3d& centre,
-                      double robust_scale_px, double weight);
+                      double robust_scale_px, double weight,
+                      std::vector<Eigen::Vector2d> fixed_shifts = {});
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
@@ -48,6 +49,7 @@ class ContourDistanceCost : public ceres::CostFunction {
   const imaging::EdgeMap* edge_map_;
   std::vector<Eigen::Vector3d> points_;
   std::vector<Eigen::Vector2d> normals_;
+  std::vector<Eigen::Vector2d> shifts_;  // per point, map pixels; empty: none
   Eigen::Vector3d centre_;
   geometry::Pose camera_from_fixed_;
   CauchyResidual robust_;

@@ -26,6 +26,7 @@ class EdgeToContourCost : public ceres::CostFunction {
     Eigen::Vector2d normal;               // its outward normal in the image
     Eigen::Vector2d edge_pixel;           // the image edge paired with it (sub-pixel)
     double offset_gain = 1.0;  // outward motion of the contour per unit of the edge offset
+    double rounding = 0.0;     // the edge expected this far inside the sample (pixels)
   };
 
   EdgeToContourCost(const geometry::XrayCamera& camera, std::vector<Pair> pairs,

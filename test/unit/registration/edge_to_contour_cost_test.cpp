@@ -119,3 +119,20 @@ TEST(EdgeToContourCost, KeptResidualsAreThoseOfTheParametersAsked) {
   EXPECT_NE(fresh(a, -0.4), fresh(a, 0.2));
   EXPECT_NE(fresh(a, 0.2), fresh(b, 0.2));
 }
+
+// A pair's rounding (the edge expected that far inside its sample) counts as the edge lying that
+// much farther out: the same residuals as the edge moved outward along the normal.
+TEST(EdgeToContourCost, RoundingCountsAsTheEdgeFartherOut) {
+  Ring rounded;
+  Ring moved;
+  for (std::size_t k = 0; k < rounded.pairs.size(); ++k) {
+    const double rounding = 0.1 * static_cast<double>(k % 5) - 0.2;
+    rounded.pairs[k].rounding = rounding;
+    moved.pairs[k].edge_pixel += rounding * moved.pairs[k].normal;
+  }
+  const double x[6] = {0.01, -0.02, 0.015, 0.0003, -0.0002, 0.0004};
+  const auto a = residualsAt(rounded.cost(), x, 0.3);
+  const auto b = residualsAt(moved.cost(), x, 0.3);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) EXPECT_NEAR(a[k], b[k], 1e-9) << "pair " << k;
+}

@@ -437,6 +437,9 @@ TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
       camera.worldFromCamera() * registration::mirroredAcrossBeam(camera_from_fixed * truth[1])};
   const registration::JointModel knee = kneeJoint();
   registration::RegistrationSettings settings;
+  // Corner rounding off: with it, the tray's corners tell this view's mirror from the truth and
+  // the registration from the mirror start finds the truth unchecked.
+  settings.corner_rounding = false;
   // Neutral as the registrar measures it.
   const auto deviation = [&](const std::vector<Pose>& poses) {
     return registration::neutralDeviation(
@@ -721,6 +724,44 @@ TEST(Registrar, ContourMetricIsSmallestNearTheTruthAndGrowsWithOffset) {
   EXPECT_LT(cost_at(0.0005), cost_at(0.0015));
   EXPECT_LT(at_truth, cost_at(-0.001));
   EXPECT_LT(cost_at(-0.001), cost_at(-0.003));
+}
+
+// The contour term's fixed per-sample shifts (corner rounding) move each sample as the edge
+// offset does: shifts of 0.3 px along the offset directions give the residuals of an offset of
+// 0.3 px.
+TEST(Registrar, ContourTermShiftsMoveSamplesAsTheOffsetDoes) {
+  const Scene scene;
+  const auto& camera = scene.camera();
+  const imaging::EdgeMap map(scene.frame.images[0], camera, imaging::EdgeMapSettings());
+  const Pose pose = offset(scene.frame.tibia, {0.0008, 0.0, 0.0}, Eigen::Vector3d::Zero());
+  const auto contour = scene.bones[1].silhouette->contour(map.camera(), pose, 4.0);
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector2d> offset_directions;
+  std::vector<Eigen::Vector2d> shifts;
+  for (const auto& c : contour) {
+    points.push_back(pose * c.model_point);
+    offset_directions.push_back(-c.normal);
+    shifts.push_back(-0.3 * c.normal);
+  }
+  const registration::ContourDistanceCost shifted(&map, points, offset_directions,
+                                                  pose.translation(), 4.0, 2.0, shifts);
+  const registration::ContourDistanceCost plain(&map, points, offset_directions, pose.translation(),
+                                                4.0, 2.0);
+  const double x[6] = {0.01, -0.02, 0.015, 0.0003, -0.0002, 0.0004};
+  const double none = 0.0;
+  const double some = 0.3;
+  const double* at_none[2] = {x, &none};
+  const double* at_some[2] = {x, &some};
+  std::vector<double> a(points.size());
+  std::vector<double> b(points.size());
+  ASSERT_TRUE(shifted.Evaluate(at_none, a.data(), nullptr));
+  ASSERT_TRUE(plain.Evaluate(at_some, b.data(), nullptr));
+  int moved = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_NEAR(a[i], b[i], 1e-9) << "sample " << i;
+    moved += a[i] != 0.0;
+  }
+  EXPECT_GT(moved, 0);
 }
 
 TEST(Registrar, AnalyticJacobianMatchesFiniteDifferences) {
