@@ -726,34 +726,44 @@ TEST(Registrar, ContourMetricIsSmallestNearTheTruthAndGrowsWithOffset) {
   EXPECT_LT(cost_at(-0.001), cost_at(-0.003));
 }
 
+// The tray's contour term on the scene's frame, 0.8 mm off its true pose, every 4 px.
+struct TrayContourTerm {
+  Scene scene;
+  imaging::EdgeMap map{scene.frame.images[0], scene.camera(), imaging::EdgeMapSettings()};
+  Pose pose = offset(scene.frame.tibia, {0.0008, 0.0, 0.0}, Eigen::Vector3d::Zero());
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector2d> offset_directions;  // inward, as the uniform offset model's
+  std::vector<Eigen::Vector2d> normals;            // outward
+
+  TrayContourTerm() {
+    for (const auto& c : scene.bones[1].silhouette->contour(map.camera(), pose, 4.0)) {
+      points.push_back(pose * c.model_point);
+      offset_directions.push_back(-c.normal);
+      normals.push_back(c.normal);
+    }
+  }
+  registration::ContourDistanceCost cost(std::vector<Eigen::Vector2d> shifts = {}) const {
+    return registration::ContourDistanceCost(&map, points, offset_directions, pose.translation(),
+                                             4.0, 2.0, std::move(shifts));
+  }
+};
+
 // The contour term's fixed per-sample shifts (corner rounding) move each sample as the edge
 // offset does: shifts of 0.3 px along the offset directions give the residuals of an offset of
 // 0.3 px.
 TEST(Registrar, ContourTermShiftsMoveSamplesAsTheOffsetDoes) {
-  const Scene scene;
-  const auto& camera = scene.camera();
-  const imaging::EdgeMap map(scene.frame.images[0], camera, imaging::EdgeMapSettings());
-  const Pose pose = offset(scene.frame.tibia, {0.0008, 0.0, 0.0}, Eigen::Vector3d::Zero());
-  const auto contour = scene.bones[1].silhouette->contour(map.camera(), pose, 4.0);
-  std::vector<Eigen::Vector3d> points;
-  std::vector<Eigen::Vector2d> offset_directions;
+  const TrayContourTerm term;
   std::vector<Eigen::Vector2d> shifts;
-  for (const auto& c : contour) {
-    points.push_back(pose * c.model_point);
-    offset_directions.push_back(-c.normal);
-    shifts.push_back(-0.3 * c.normal);
-  }
-  const registration::ContourDistanceCost shifted(&map, points, offset_directions,
-                                                  pose.translation(), 4.0, 2.0, shifts);
-  const registration::ContourDistanceCost plain(&map, points, offset_directions, pose.translation(),
-                                                4.0, 2.0);
+  for (const auto& n : term.normals) shifts.push_back(-0.3 * n);
+  const auto shifted = term.cost(shifts);
+  const auto plain = term.cost();
   const double x[6] = {0.01, -0.02, 0.015, 0.0003, -0.0002, 0.0004};
   const double none = 0.0;
   const double some = 0.3;
   const double* at_none[2] = {x, &none};
   const double* at_some[2] = {x, &some};
-  std::vector<double> a(points.size());
-  std::vector<double> b(points.size());
+  std::vector<double> a(term.points.size());
+  std::vector<double> b(term.points.size());
   ASSERT_TRUE(shifted.Evaluate(at_none, a.data(), nullptr));
   ASSERT_TRUE(plain.Evaluate(at_some, b.data(), nullptr));
   int moved = 0;
@@ -765,23 +775,12 @@ TEST(Registrar, ContourTermShiftsMoveSamplesAsTheOffsetDoes) {
 }
 
 TEST(Registrar, AnalyticJacobianMatchesFiniteDifferences) {
-  const Scene scene;
-  const auto& camera = scene.camera();
-  const imaging::EdgeMap map(scene.frame.images[0], camera, imaging::EdgeMapSettings());
-  const Pose pose = offset(scene.frame.tibia, {0.0008, 0.0, 0.0}, Eigen::Vector3d::Zero());
-  const auto contour = scene.bones[1].silhouette->contour(map.camera(), pose, 4.0);
-  std::vector<Eigen::Vector3d> points;
-  std::vector<Eigen::Vector2d> offset_directions;
-  for (const auto& c : contour) {
-    points.push_back(pose * c.model_point);
-    offset_directions.push_back(-c.normal);
-  }
-  const registration::ContourDistanceCost cost(&map, points, offset_directions, pose.translation(),
-                                               4.0, 2.0);
+  const TrayContourTerm term;
+  const auto cost = term.cost();
   const double x[6] = {0.01, -0.02, 0.015, 0.0003, -0.0002, 0.0004};
   const double edge_offset = 0.3;
   const double* parameters[2] = {x, &edge_offset};
-  const std::size_t n = points.size();
+  const std::size_t n = term.points.size();
   std::vector<double> r0(n);
   std::vector<double> jac(6 * n);
   std::vector<double> jac_offset(n);
