@@ -39,22 +39,45 @@ std::vector<double> cornerRounding(const std::vector<imaging::ContourPoint>& con
     const int cv = std::clamp(static_cast<int>((p.y() - box.min().y()) / radius), 0, rows - 1);
     return std::pair<int, int>(cu, cv);
   };
-  std::vector<std::vector<int>> cells(static_cast<std::size_t>(cols * rows));
+  // A counting sort: cell_start[c] .. cell_start[c + 1] index the samples of cell c.
+  std::vector<int> cell_start(static_cast<std::size_t>(cols * rows) + 1, 0);
+  std::vector<int> cell_of_sample(contour.size());
   for (std::size_t j = 0; j < contour.size(); ++j) {
     const auto [cu, cv] = cell_of(contour[j].pixel);
-    cells[static_cast<std::size_t>(cv * cols + cu)].push_back(static_cast<int>(j));
+    cell_of_sample[j] = cv * cols + cu;
+    ++cell_start[static_cast<std::size_t>(cell_of_sample[j]) + 1];
+  }
+  for (std::size_t c = 1; c < cell_start.size(); ++c) cell_start[c] += cell_start[c - 1];
+  // Positions and normals in cell order, read in sequence by the search below.
+  std::vector<int> samples_by_cell(contour.size());
+  std::vector<Eigen::Vector4d> by_cell(contour.size());  // pixel, normal
+  {
+    std::vector<int> next(cell_start.begin(), cell_start.end() - 1);
+    for (std::size_t j = 0; j < contour.size(); ++j) {
+      const auto slot = static_cast<std::size_t>(next[cell_of_sample[j]]++);
+      samples_by_cell[slot] = static_cast<int>(j);
+      by_cell[slot] << contour[j].pixel, contour[j].normal;
+    }
   }
   for (std::size_t i = 0; i < contour.size(); ++i) {
-    const auto [cu, cv] = cell_of(contour[i].pixel);
+    const int cu = cell_of_sample[i] % cols;
+    const int cv = cell_of_sample[i] / cols;
+    const Eigen::Vector2d& p = contour[i].pixel;
+    const Eigen::Vector2d& n = contour[i].normal;
     double nearest = radius * radius;
     int other = -1;
     for (int gv = std::max(0, cv - 1); gv <= std::min(rows - 1, cv + 1); ++gv) {
       for (int gu = std::max(0, cu - 1); gu <= std::min(cols - 1, cu + 1); ++gu) {
-        for (const int k : cells[static_cast<std::size_t>(gv * cols + gu)]) {
-          const double squared = (contour[k].pixel - contour[i].pixel).squaredNorm();
-          if (squared < nearest && contour[k].normal.dot(contour[i].normal) < min_cos) {
+        const int g = gv * cols + gu;
+        for (int s = cell_start[static_cast<std::size_t>(g)];
+             s < cell_start[static_cast<std::size_t>(g) + 1]; ++s) {
+          const Eigen::Vector4d& q = by_cell[static_cast<std::size_t>(s)];
+          const double du = q[0] - p.x();
+          const double dv = q[1] - p.y();
+          const double squared = du * du + dv * dv;
+          if (squared < nearest && q[2] * n.x() + q[3] * n.y() < min_cos) {
             nearest = squared;
-            other = k;
+            other = samples_by_cell[static_cast<std::size_t>(s)];
           }
         }
       }
