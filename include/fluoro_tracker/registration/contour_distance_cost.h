@@ -27,7 +27,9 @@ class ContourDistanceCost : public ceres::CostFunction {
   // `points_fixed`: contour points at the current pose T0, in the fixed frame. `centre`: the
   // rotation centre of the increment. `edge_map` must outlive the cost.
   // `offset_directions`: how far (map pixels) and which way each point moves per unit of the
-  // edge offset parameter.
+  // edge offset parameter. `fixed_shifts` (map pixels, per point; empty: none): a constant move
+  // of each point's projection before it is compared, e.g. where the edge map's smoothing puts
+  // a corner's edge (registration::cornerRounding).
   ContourDistanceCost(const imaging::EdgeMap* edge_map, std::vector<Eigen::Vector3d> points_fixed,
                       std::vector<Eigen::Vector2d> offset_directions, const Eigen::Vector3d& centre,
                       double robust_scale_px, double weight,
