@@ -24,6 +24,7 @@
 #include "fluoro_tracker/registration/mirror_ambiguity.h"
 #include "fluoro_tracker/registration/parent_relative_cost.h"
 #include "fluoro_tracker/registration/pose_increment.h"
+#include "fluoro_tracker/registration/sample_grid.h"
 
 namespace fluoro_tracker {
 namespace registration {
@@ -127,32 +128,21 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
   const int cell = std::max(1, static_cast<int>(std::ceil(band)));
   const int grid_cols = crop.width / cell + 1;
   const int grid_rows = crop.height / cell + 1;
-  std::vector<Eigen::Vector2d> in_crop(contour.size());  // sample positions in the crop
-  std::vector<int> cell_of_sample(contour.size(), -1);
-  std::vector<int> cell_start(static_cast<std::size_t>(grid_cols * grid_rows) + 1, 0);
+  // Sample positions in the crop; those outside it are left out of the grid.
+  std::vector<Eigen::Vector2d> in_crop(contour.size());
   for (std::size_t j = 0; j < contour.size(); ++j) {
     in_crop[j] = contour[j].pixel - Eigen::Vector2d(crop.x, crop.y);
-    const double u = in_crop[j].x();
-    const double v = in_crop[j].y();
-    if (!(u >= 0.0 && v >= 0.0 && u < crop.width && v < crop.height)) continue;
-    cell_of_sample[j] = static_cast<int>(v) / cell * grid_cols + static_cast<int>(u) / cell;
-    ++cell_start[cell_of_sample[j] + 1];
-  }
-  for (std::size_t c = 1; c < cell_start.size(); ++c) cell_start[c] += cell_start[c - 1];
-  std::vector<int> samples_by_cell(static_cast<std::size_t>(cell_start.back()));
-  {
-    std::vector<int> next(cell_start.begin(), cell_start.end() - 1);
-    for (std::size_t j = 0; j < contour.size(); ++j) {
-      if (cell_of_sample[j] >= 0) samples_by_cell[next[cell_of_sample[j]]++] = static_cast<int>(j);
+    if (!(in_crop[j].x() < crop.width && in_crop[j].y() < crop.height)) {
+      in_crop[j].setConstant(std::numeric_limits<double>::quiet_NaN());
     }
   }
+  const SampleGrid grid(in_crop, Eigen::Vector2d::Zero(), cell, grid_cols, grid_rows);
   // Cells with a sample in their 3 x 3 neighbourhood: edge pixels elsewhere (most of the bone's
   // interior and background) are skipped without visiting the cells.
   std::vector<std::uint8_t> near_samples(static_cast<std::size_t>(grid_cols * grid_rows), 0);
   for (int gv = 0; gv < grid_rows; ++gv) {
     for (int gu = 0; gu < grid_cols; ++gu) {
-      const int g = gv * grid_cols + gu;
-      if (cell_start[g] == cell_start[g + 1]) continue;
+      if (grid.empty(gv * grid_cols + gu)) continue;
       for (int nv = std::max(0, gv - 1); nv <= std::min(grid_rows - 1, gv + 1); ++nv) {
         for (int nu = std::max(0, gu - 1); nu <= std::min(grid_cols - 1, gu + 1); ++nu) {
           near_samples[nv * grid_cols + nu] = 1;
@@ -165,11 +155,6 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
     int v;
     int sample;
   };
-  // The samples' positions in cell order, read in sequence by the search below.
-  std::vector<Eigen::Vector2d> positions_by_cell(samples_by_cell.size());
-  for (std::size_t k = 0; k < samples_by_cell.size(); ++k) {
-    positions_by_cell[k] = in_crop[samples_by_cell[k]];
-  }
   std::vector<Candidate> candidates;
   const double band_squared = band * band;
   for (int v = 0; v < edges.rows; ++v) {
@@ -189,9 +174,9 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
       if (e[u] == 0) continue;
       const int cell_u = u / cell;
       if (near_row[cell_u] == 0) continue;
-      const auto squared_distance = [&](int k) {
-        const double du = positions_by_cell[k].x() - u;
-        const double dv = positions_by_cell[k].y() - v;
+      const auto squared_distance = [&](int slot) {
+        const double du = grid.position(slot).x() - u;
+        const double dv = grid.position(slot).y() - v;
         return du * du + dv * dv;
       };
       // A bound from the pixel's own cell first, so that the 3 x 3 scan below skips the cells
@@ -199,8 +184,8 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
       // near samples wins), so the pairs are those of a full scan.
       double bound = band_squared;
       const int own = cell_v * grid_cols + cell_u;
-      for (int k = cell_start[own]; k < cell_start[own + 1]; ++k) {
-        bound = std::min(bound, squared_distance(k));
+      for (int slot = grid.begin(own); slot < grid.end(own); ++slot) {
+        bound = std::min(bound, squared_distance(slot));
       }
       double best = band_squared;
       int nearest = -1;
@@ -214,11 +199,11 @@ std::vector<EdgeToContourCost::Pair> edgeContourPairs(
                                           : 0.0;
           if (du * du + dv * dv > bound) continue;
           const int g = gv * grid_cols + gu;
-          for (int k = cell_start[g]; k < cell_start[g + 1]; ++k) {
-            const double squared = squared_distance(k);
+          for (int slot = grid.begin(g); slot < grid.end(g); ++slot) {
+            const double squared = squared_distance(slot);
             if (squared <= best) {
               best = squared;
-              nearest = samples_by_cell[k];
+              nearest = grid.point(slot);
             }
           }
         }
