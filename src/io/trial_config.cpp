@@ -232,6 +232,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "edge_offset_min_px",
                      "edge_offset_hold",
                      "corner_rounding",
+                     "rendered_edges",
                      "edge_offset_tracking",
                      "contact_from_outer_iteration",
                      "stages",
@@ -289,6 +290,10 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("edge_offset_min_px", &r.edge_offset_min_px);
   section.read("edge_offset_hold", &r.edge_offset_hold);
   section.read("corner_rounding", &r.corner_rounding);
+  const YamlSection rendered_edges = section.child("rendered_edges");
+  rendered_edges.allowOnly({"enabled", "saturation_mm"});
+  rendered_edges.read("enabled", &r.rendered_edges.enabled);
+  rendered_edges.read("saturation_mm", &r.rendered_edges.saturation_mm);
   const YamlSection offset_tracking = section.child("edge_offset_tracking");
   offset_tracking.allowOnly({"enabled", "frame_sd_px", "drift_px"});
   offset_tracking.read("enabled", &r.edge_offset_tracking.enabled);

@@ -24,6 +24,7 @@
 #include "fluoro_tracker/registration/mirror_ambiguity.h"
 #include "fluoro_tracker/registration/parent_relative_cost.h"
 #include "fluoro_tracker/registration/pose_increment.h"
+#include "fluoro_tracker/registration/rendered_edges.h"
 #include "fluoro_tracker/registration/sample_grid.h"
 
 namespace fluoro_tracker {
@@ -559,6 +560,9 @@ void RegistrationSettings::validate() const {
   if (!(edge_offset_tracking.frame_sd_px > 0.0) || !(edge_offset_tracking.drift_px >= 0.0)) {
     throw InputError("registration: edge_offset_tracking needs frame_sd_px > 0 and drift_px >= 0");
   }
+  if (!(rendered_edges.saturation_mm > 0.0) || !std::isfinite(rendered_edges.saturation_mm)) {
+    throw InputError("registration: rendered_edges needs a finite saturation_mm > 0");
+  }
   if (contact_from_outer_iteration < 0) {
     throw InputError("registration: contact_from_outer_iteration must be >= 0");
   }
@@ -985,16 +989,21 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
             offset_directions.reserve(contour.size());
             // Corners are compared where the edge map's smoothing puts their edges once the
             // contour is within a pixel, as the edge offset is (corner_rounding).
-            const bool round_corners =
-                settings_.corner_rounding && finest && (!settings_.edge_offset_hold || outer >= 1);
+            const bool predict_edges = finest && (!settings_.edge_offset_hold || outer >= 1);
+            const bool render_edges = settings_.rendered_edges.enabled && predict_edges;
+            const bool round_corners = settings_.corner_rounding && predict_edges && !render_edges;
             const std::vector<double> rounding =
-                cornerRounding(contour, round_corners ? settings_.edges.blur_sigma_px : 0.0);
+                render_edges
+                    ? renderedEdgeRounding(*bones_[b].silhouette, camera, camera_from_fixed * pose,
+                                           contour, settings_.edges,
+                                           settings_.rendered_edges.saturation_mm)
+                    : cornerRounding(contour, round_corners ? settings_.edges.blur_sigma_px : 0.0);
             std::vector<Eigen::Vector2d> shifts;
             for (std::size_t k = 0; k < contour.size(); ++k) {
               const auto& c = contour[k];
               points.push_back(pose * c.model_point);
               offset_directions.push_back(offsetDirection(c, settings_.edge_offset_model));
-              if (round_corners) shifts.push_back(-rounding[k] * c.normal);
+              if (round_corners || render_edges) shifts.push_back(-rounding[k] * c.normal);
             }
             points_in_views += static_cast<int>(points.size());
             const std::size_t forward_count = points.size();

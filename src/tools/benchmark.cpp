@@ -855,6 +855,14 @@ int main(int argc, char** argv) {
       po::value(&settings.corner_rounding)->default_value(settings.corner_rounding),
       "compare the contour near sharp turns where the edge map's smoothing puts the edges "
       "(true/false)")(
+      "rendered-edges",
+      po::value(&settings.rendered_edges.enabled)->default_value(settings.rendered_edges.enabled),
+      "instead of corner rounding, compare the contour where the edge map finds the edges of "
+      "each bone's own rendered radiograph (true/false)")(
+      "rendered-edges-saturation-mm",
+      po::value(&settings.rendered_edges.saturation_mm)
+          ->default_value(settings.rendered_edges.saturation_mm),
+      "metal path at which the rendered radiograph's grey saturates, mm")(
       "edge-offset-hold",
       po::value(&settings.edge_offset_hold)->default_value(settings.edge_offset_hold),
       "hold the edge offset at zero until the finest scale's second outer iteration "

@@ -168,6 +168,20 @@ struct EdgeOffsetTrackingSettings {
   double drift_px = 0.005;
 };
 
+// Compare the contour where the edge map finds the edges of each bone's own radiograph,
+// rendered at its pose (registration::renderedEdgeRounding), instead of corner rounding, at the
+// same outer iterations. An option for offline analysis, off by default. Measured (benchmark,
+// standard protocol, every term, README "Registration"): along the beam 1.50 -> 1.32 mm (seed
+// 7), 1.25 -> 1.08 mm (seed 11), 2.35 -> 1.59 mm on the Kneel study's implant models, their
+// rotations about X and Y 0.28 -> 0.20 deg; but image-only success on those models 98 -> 93 %
+// and the median time per frame 24 -> 32 ms (seed 7).
+struct RenderedEdgeSettings {
+  bool enabled = false;
+  // Metal path (mm) at which the rendered grey saturates: about where a real frame's display
+  // stops darkening (3 mm moved depth the wrong way on the benchmark, 8 mm far more).
+  double saturation_mm = 1.0;
+};
+
 struct RegistrationSettings {
   // Coarse-to-fine image scales. Half resolution first keeps a bone from sliding along the
   // beam before its edge offset is free: on the real Kneel frames full resolution alone left the
@@ -278,6 +292,7 @@ struct RegistrationSettings {
   // only 87 -> 90 % on seed 7; success over all 2,000 frames of the four protocols 1,862 ->
   // 1,859.
   bool corner_rounding = true;
+  RenderedEdgeSettings rendered_edges;
   EdgeOffsetTrackingSettings edge_offset_tracking;
   // Contact penalties join at this outer iteration of the finest scale (0: from the start).
   int contact_from_outer_iteration = 1;

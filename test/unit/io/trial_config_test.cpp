@@ -353,6 +353,7 @@ registration:
   parameterisation: parent_relative
   edge_offset_hold: false
   corner_rounding: false
+  rendered_edges: {enabled: true, saturation_mm: 2.5}
   edge_offset_min_px: 0.0
   edge_offset_tracking: {enabled: false, frame_sd_px: 0.3, drift_px: 0.05}
   edges: {clahe: true, canny_high: 60, thresholds_skip_saturated_borders: false}
@@ -410,6 +411,8 @@ registration:
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_final_px, 1.5);
   EXPECT_FALSE(c.registration.edge_offset_hold);
   EXPECT_FALSE(c.registration.corner_rounding);
+  EXPECT_TRUE(c.registration.rendered_edges.enabled);
+  EXPECT_DOUBLE_EQ(c.registration.rendered_edges.saturation_mm, 2.5);
   EXPECT_FALSE(c.registration.edge_offset_tracking.enabled);
   EXPECT_DOUBLE_EQ(c.registration.edge_offset_tracking.frame_sd_px, 0.3);
   EXPECT_DOUBLE_EQ(c.registration.edge_offset_tracking.drift_px, 0.05);
@@ -509,6 +512,8 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.registration.edge_offset_min_px, d.edge_offset_min_px);
   EXPECT_EQ(c.registration.edge_offset_hold, d.edge_offset_hold);
   EXPECT_EQ(c.registration.corner_rounding, d.corner_rounding);
+  EXPECT_EQ(c.registration.rendered_edges.enabled, d.rendered_edges.enabled);
+  EXPECT_EQ(c.registration.rendered_edges.saturation_mm, d.rendered_edges.saturation_mm);
   EXPECT_EQ(c.registration.contact_from_outer_iteration, d.contact_from_outer_iteration);
   EXPECT_EQ(c.registration.mirror_check.enabled, d.mirror_check.enabled);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.cost_tolerance, d.mirror_check.cost_tolerance);
