@@ -988,7 +988,8 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
             points.reserve(contour.size());
             offset_directions.reserve(contour.size());
             // Corners are compared where the edge map's smoothing puts their edges once the
-            // contour is within a pixel, as the edge offset is (corner_rounding).
+            // contour is within a pixel, as the edge offset is (corner_rounding); with
+            // rendered_edges, every sample where the edge map finds the bone's rendered edge.
             const bool predict_edges = finest && (!settings_.edge_offset_hold || outer >= 1);
             const bool render_edges = settings_.rendered_edges.enabled && predict_edges;
             const bool round_corners = settings_.corner_rounding && predict_edges && !render_edges;
