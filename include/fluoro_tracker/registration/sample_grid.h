@@ -19,7 +19,6 @@ class SampleGrid {
 
   int cols() const { return cols_; }
   int rows() const { return rows_; }
-  double cellSize() const { return cell_size_; }
 
   // The cell of a position, or -1 outside the grid.
   int cellOf(const Eigen::Vector2d& position) const;
