@@ -114,12 +114,19 @@ float percentile(const cv::Mat& values, double fraction) {
   int bin = 0;
   std::size_t below = 0;
   while (below + histogram[bin] <= k) below += histogram[bin++];
+  // The bin's values: those whose scaled value lies in [bin, bin + 1) (the last bin: above its
+  // start), which is bin_of's test for non-negative values without its conversion to int.
+  const float bin_low =
+      bin == 0 ? -std::numeric_limits<float>::infinity() : static_cast<float>(bin);
+  const float bin_high =
+      bin == kBins - 1 ? std::numeric_limits<float>::infinity() : static_cast<float>(bin + 1);
   std::vector<float> in_bin;
   in_bin.reserve(histogram[bin]);
   for (int v = 0; v < values.rows; ++v) {
     const float* row = values.ptr<float>(v);
     for (int u = 0; u < values.cols; ++u) {
-      if (bin_of(row[u]) == bin) in_bin.push_back(row[u]);
+      const float scaled = row[u] * to_bin;
+      if (scaled >= bin_low && scaled < bin_high) in_bin.push_back(row[u]);
     }
   }
   const auto kth = in_bin.begin() + static_cast<std::ptrdiff_t>(k - below);
@@ -220,6 +227,8 @@ class LocalGradientNoise {
     const int tiles_u = sigma_.cols;
     const int tiles_v = sigma_.rows;
     constexpr double kRayleigh30 = 0.8446;
+    // Counted into four interleaved copies, as countBins does, then added up.
+    std::array<int, 4 * kBins> counts{};
     std::array<int, kBins> histogram{};
     for (int tv = 0; tv < tiles_v; ++tv) {
       const int v0 = tv * rows_ / tiles_v;
@@ -227,10 +236,21 @@ class LocalGradientNoise {
       for (int tu = 0; tu < tiles_u; ++tu) {
         const int u0 = tu * cols_ / tiles_u;
         const int u1 = (tu + 1) * cols_ / tiles_u;
-        histogram.fill(0);
+        counts.fill(0);
         for (int v = v0; v < v1; ++v) {
           const float* row = magnitude.ptr<float>(v);
-          for (int u = u0; u < u1; ++u) ++histogram[binOf(row[u])];
+          int u = u0;
+          for (; u + 4 <= u1; u += 4) {
+            ++counts[binOf(row[u])];
+            ++counts[kBins + binOf(row[u + 1])];
+            ++counts[2 * kBins + binOf(row[u + 2])];
+            ++counts[3 * kBins + binOf(row[u + 3])];
+          }
+          for (; u < u1; ++u) ++counts[binOf(row[u])];
+        }
+        for (int b = 0; b < kBins; ++b) {
+          histogram[b] =
+              counts[b] + counts[kBins + b] + counts[2 * kBins + b] + counts[3 * kBins + b];
         }
         // The value with 30 % of the tile below it, linear within its bin.
         const double rank = 0.3 * (u1 - u0) * (v1 - v0);
@@ -277,44 +297,73 @@ class LocalGradientNoise {
   cv::Mat sigma_;  // CV_32F, one per tile
 };
 
-// Removes from `edges` the pixels whose gradient is below `low` local noise standard
-// deviations, and the 8-connected chains left that nowhere reach `high`.
-void removeInsignificantEdges(const cv::Mat& magnitude, double high, double low, cv::Mat* edges) {
-  const LocalGradientNoise noise(magnitude);
-  for (int v = 0; v < edges->rows; ++v) {
-    std::uint8_t* e = edges->ptr<std::uint8_t>(v);
-    const float* m = magnitude.ptr<float>(v);
-    for (int u = 0; u < edges->cols; ++u) {
-      if (e[u] != 0 && m[u] < low * noise.at(u, v)) e[u] = 0;
+// The non-zero pixels of a sparse CV_8U mask in row-major order, skipping zeros eight at a
+// time (cv::findNonZero looks at every pixel, twice).
+std::vector<cv::Point> nonZeroPixels(const cv::Mat& mask) {
+  std::vector<cv::Point> pixels;
+  for (int v = 0; v < mask.rows; ++v) {
+    const std::uint8_t* row = mask.ptr<std::uint8_t>(v);
+    int u = 0;
+    for (; u + 8 <= mask.cols; u += 8) {
+      std::uint64_t word = 0;
+      std::memcpy(&word, row + u, sizeof(word));
+      if (word == 0) continue;
+      for (int k = 0; k < 8; ++k) {
+        if (row[u + k] != 0) pixels.emplace_back(u + k, v);
+      }
+    }
+    for (; u < mask.cols; ++u) {
+      if (row[u] != 0) pixels.emplace_back(u, v);
     }
   }
+  return pixels;
+}
+
+// Removes from `edges` the pixels whose gradient is below `low` local noise standard
+// deviations, and the 8-connected chains left that nowhere reach `high`. `pixels`: the edge
+// pixels in row-major order (nonZeroPixels); those removed are dropped from it.
+void removeInsignificantEdges(const cv::Mat& magnitude, double high, double low, cv::Mat* edges,
+                              std::vector<cv::Point>* pixels) {
+  const LocalGradientNoise noise(magnitude);
+  std::size_t kept = 0;
+  for (const cv::Point& p : *pixels) {
+    if (magnitude.at<float>(p) < low * noise.at(p.x, p.y)) {
+      edges->at<std::uint8_t>(p) = 0;
+    } else {
+      (*pixels)[kept++] = p;
+    }
+  }
+  pixels->resize(kept);
   // Each chain, flood-filled from its first pixel, is dropped unless one pixel reaches `high`.
   cv::Mat visited = cv::Mat::zeros(edges->size(), CV_8U);
   std::vector<cv::Point> chain;
-  for (int v = 0; v < edges->rows; ++v) {
-    for (int u = 0; u < edges->cols; ++u) {
-      if (edges->at<std::uint8_t>(v, u) == 0 || visited.at<std::uint8_t>(v, u) != 0) continue;
-      chain.assign(1, cv::Point(u, v));
-      visited.at<std::uint8_t>(v, u) = 1;
-      bool significant = false;
-      for (std::size_t i = 0; i < chain.size(); ++i) {
-        const cv::Point p = chain[i];
-        if (!significant && magnitude.at<float>(p) >= high * noise.at(p.x, p.y)) significant = true;
-        for (int dv = -1; dv <= 1; ++dv) {
-          for (int du = -1; du <= 1; ++du) {
-            const cv::Point q(p.x + du, p.y + dv);
-            if (q.x < 0 || q.y < 0 || q.x >= edges->cols || q.y >= edges->rows) continue;
-            if (edges->at<std::uint8_t>(q) == 0 || visited.at<std::uint8_t>(q) != 0) continue;
-            visited.at<std::uint8_t>(q) = 1;
-            chain.push_back(q);
-          }
+  for (const cv::Point& seed : *pixels) {
+    if (visited.at<std::uint8_t>(seed) != 0) continue;
+    chain.assign(1, seed);
+    visited.at<std::uint8_t>(seed) = 1;
+    bool significant = false;
+    for (std::size_t i = 0; i < chain.size(); ++i) {
+      const cv::Point p = chain[i];
+      if (!significant && magnitude.at<float>(p) >= high * noise.at(p.x, p.y)) significant = true;
+      for (int dv = -1; dv <= 1; ++dv) {
+        for (int du = -1; du <= 1; ++du) {
+          const cv::Point q(p.x + du, p.y + dv);
+          if (q.x < 0 || q.y < 0 || q.x >= edges->cols || q.y >= edges->rows) continue;
+          if (edges->at<std::uint8_t>(q) == 0 || visited.at<std::uint8_t>(q) != 0) continue;
+          visited.at<std::uint8_t>(q) = 1;
+          chain.push_back(q);
         }
       }
-      if (!significant) {
-        for (const cv::Point& p : chain) edges->at<std::uint8_t>(p) = 0;
-      }
+    }
+    if (!significant) {
+      for (const cv::Point& p : chain) edges->at<std::uint8_t>(p) = 0;
     }
   }
+  kept = 0;
+  for (const cv::Point& p : *pixels) {
+    if (edges->at<std::uint8_t>(p) != 0) (*pixels)[kept++] = p;
+  }
+  pixels->resize(kept);
 }
 
 }  // namespace
@@ -399,38 +448,42 @@ EdgeMap::EdgeMap(const cv::Mat& image, const geometry::XrayCamera& camera, const
     low = s.auto_low_ratio * high;
   }
   cv::Canny(smooth, edges_, low, high, 3, true);
+  // The edge pixels, listed once: Canny's edges are a few percent of the region, and scanning
+  // every pixel for them, as each step after it did, cost more than the steps' own work.
+  std::vector<cv::Point> edge_pixels = nonZeroPixels(edges_);
   if (s.min_edge_significance > 0.0) {
     removeInsignificantEdges(magnitude, s.min_edge_significance,
-                             s.edge_significance_low_ratio * s.min_edge_significance, &edges_);
+                             s.edge_significance_low_ratio * s.min_edge_significance, &edges_,
+                             &edge_pixels);
   }
-  findNearestEdges(gx, gy, magnitude, s.line_distance_band_px);
+  findNearestEdges(gx, gy, magnitude, edge_pixels, s.line_distance_band_px);
 }
 
 void EdgeMap::findNearestEdges(const cv::Mat& gx, const cv::Mat& gy, const cv::Mat& magnitude,
-                               double band) {
+                               const std::vector<cv::Point>& edge_pixels, double band) {
   // Sub-pixel edge points and unit normals (toward the brighter side) at every edge pixel.
   edge_points_ = cv::Mat(edges_.size(), CV_32FC2, cv::Scalar(0, 0));
   std::vector<Eigen::Vector2d> points;
   std::vector<Eigen::Vector2d> normals;
-  for (int v = 0; v < edges_.rows; ++v) {
-    const std::uint8_t* e = edges_.ptr<std::uint8_t>(v);
-    for (int u = 0; u < edges_.cols; ++u) {
-      if (e[u] == 0) continue;
-      Eigen::Vector2d n(gx.at<float>(v, u), gy.at<float>(v, u));
-      const double norm = n.norm();
-      n = norm > 0.0 ? Eigen::Vector2d(n / norm) : Eigen::Vector2d(1.0, 0.0);
-      const double m0 = magnitude.at<float>(v, u);
-      const double plus = bilinear(magnitude, u + n.x(), v + n.y());
-      const double minus = bilinear(magnitude, u - n.x(), v - n.y());
-      const double curvature = plus - 2.0 * m0 + minus;
-      double offset = 0.0;
-      if (curvature < 0.0) offset = std::clamp(0.5 * (minus - plus) / curvature, -0.5, 0.5);
-      const Eigen::Vector2d point = Eigen::Vector2d(u, v) + offset * n;
-      edge_points_.at<cv::Vec2f>(v, u) =
-          cv::Vec2f(static_cast<float>(point.x()), static_cast<float>(point.y()));
-      points.push_back(point);
-      normals.push_back(n);
-    }
+  points.reserve(edge_pixels.size());
+  normals.reserve(edge_pixels.size());
+  for (const cv::Point& pixel : edge_pixels) {
+    const int u = pixel.x;
+    const int v = pixel.y;
+    Eigen::Vector2d n(gx.at<float>(v, u), gy.at<float>(v, u));
+    const double norm = n.norm();
+    n = norm > 0.0 ? Eigen::Vector2d(n / norm) : Eigen::Vector2d(1.0, 0.0);
+    const double m0 = magnitude.at<float>(v, u);
+    const double plus = bilinear(magnitude, u + n.x(), v + n.y());
+    const double minus = bilinear(magnitude, u - n.x(), v - n.y());
+    const double curvature = plus - 2.0 * m0 + minus;
+    double offset = 0.0;
+    if (curvature < 0.0) offset = std::clamp(0.5 * (minus - plus) / curvature, -0.5, 0.5);
+    const Eigen::Vector2d point = Eigen::Vector2d(u, v) + offset * n;
+    edge_points_.at<cv::Vec2f>(v, u) =
+        cv::Vec2f(static_cast<float>(point.x()), static_cast<float>(point.y()));
+    points.push_back(point);
+    normals.push_back(n);
   }
   if (points.empty()) {
     distance_ = cv::Mat(edges_.size(), CV_32F, cv::Scalar(max_distance_));

@@ -118,8 +118,9 @@ class EdgeMap {
     int find(const Eigen::Vector2d& pixel, double max_distance) const;
   };
 
+  // `edge_pixels`: edges_'s non-zero pixels in row-major order.
   void findNearestEdges(const cv::Mat& gx, const cv::Mat& gy, const cv::Mat& magnitude,
-                        double band);
+                        const std::vector<cv::Point>& edge_pixels, double band);
   // Works out the signed distance at pixel (u, v) and keeps it in distance_; `nearest_point`:
   // the index of its nearest edge point when already found, else -1.
   float computeDistance(int u, int v, int nearest_point = -1) const;
