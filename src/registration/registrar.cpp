@@ -19,6 +19,7 @@
 #include "fluoro_tracker/registration/contact_cost.h"
 #include "fluoro_tracker/registration/contour_distance_cost.h"
 #include "fluoro_tracker/registration/corner_rounding.h"
+#include "fluoro_tracker/registration/edge_map_prefetch.h"
 #include "fluoro_tracker/registration/edge_to_contour_cost.h"
 #include "fluoro_tracker/registration/ligament_cost.h"
 #include "fluoro_tracker/registration/mirror_ambiguity.h"
@@ -890,6 +891,11 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
     }
   }
   std::vector<imaging::EdgeMap> maps;  // of the current scale; the finest one at the end
+  // The finer scales' maps are built on another core while the first is solved.
+  std::optional<EdgeMapPrefetch> prefetch;
+  if (!reuse_maps) {
+    prefetch.emplace(views, settings_.edges, rois, settings_.scales, settings_.prefetch_edge_maps);
+  }
   for (std::size_t scale_index = reuse_maps ? settings_.scales.size() - 1 : 0;
        scale_index < settings_.scales.size(); ++scale_index) {
     const double scale = settings_.scales[scale_index];
@@ -897,11 +903,7 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
     if (reuse_maps) {
       maps = *finest_maps;
     } else {
-      maps.clear();
-      maps.reserve(views.size());
-      for (std::size_t v = 0; v < views.size(); ++v) {
-        maps.emplace_back(views[v].image, views[v].camera, settings_.edges, rois[v], scale);
-      }
+      maps = prefetch->take(scale_index);
     }
     // Offsets are in pixels of the map's scale.
     for (auto& per_view : offsets) {

@@ -855,6 +855,10 @@ int main(int argc, char** argv) {
       po::value(&settings.corner_rounding)->default_value(settings.corner_rounding),
       "compare the contour near sharp turns where the edge map's smoothing puts the edges "
       "(true/false)")(
+      "prefetch-edge-maps",
+      po::value(&settings.prefetch_edge_maps)->default_value(settings.prefetch_edge_maps),
+      "build the finer scales' edge maps on a second thread while the coarser scales are solved "
+      "(true/false; the same results)")(
       "rendered-edges",
       po::value(&settings.rendered_edges.enabled)->default_value(settings.rendered_edges.enabled),
       "instead of corner rounding, compare the contour where the edge map finds the edges of "

@@ -292,6 +292,10 @@ struct RegistrationSettings {
   // only 87 -> 90 % on seed 7; success over all 2,000 frames of the four protocols 1,862 ->
   // 1,859.
   bool corner_rounding = true;
+  // With more than one scale, build the finer scales' edge maps on a second thread while the
+  // coarser scales are solved (registration::EdgeMapPrefetch; the same maps, so the same
+  // results). Off: one thread, for a caller that runs several registrations side by side.
+  bool prefetch_edge_maps = true;
   RenderedEdgeSettings rendered_edges;
   EdgeOffsetTrackingSettings edge_offset_tracking;
   // Contact penalties join at this outer iteration of the finest scale (0: from the start).
