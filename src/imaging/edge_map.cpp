@@ -20,9 +20,7 @@ namespace {
 // radiograph's background, would otherwise make each increment wait for the one before on the
 // same counter.
 template <typename T, typename BinOf>
-void countBins(const T* row, int cols, int levels, BinOf bin_of,
-               std::vector<std::uint32_t>* histogram) {
-  std::uint32_t* h = histogram->data();
+void countBins(const T* row, int cols, int levels, BinOf bin_of, std::uint32_t* h) {
   int u = 0;
   for (; u + 4 <= cols; u += 4) {
     ++h[bin_of(row[u])];
@@ -50,9 +48,9 @@ std::pair<double, double> percentiles(const cv::Mat& region, double low, double 
   const auto identity = [](auto x) { return static_cast<int>(x); };
   for (int v = 0; v < region.rows; ++v) {
     if (region.depth() == CV_8U) {
-      countBins(region.ptr<std::uint8_t>(v), region.cols, levels, identity, &counts);
+      countBins(region.ptr<std::uint8_t>(v), region.cols, levels, identity, counts.data());
     } else {
-      countBins(region.ptr<std::uint16_t>(v), region.cols, levels, identity, &counts);
+      countBins(region.ptr<std::uint16_t>(v), region.cols, levels, identity, counts.data());
     }
   }
   const std::vector<std::size_t> histogram = sumBins(counts, levels);
@@ -108,7 +106,7 @@ float percentile(const cv::Mat& values, double fraction) {
   };
   std::vector<std::uint32_t> counts(4 * kBins, 0);
   for (int v = 0; v < values.rows; ++v) {
-    countBins(values.ptr<float>(v), values.cols, kBins, bin_of, &counts);
+    countBins(values.ptr<float>(v), values.cols, kBins, bin_of, counts.data());
   }
   const std::vector<std::size_t> histogram = sumBins(counts, kBins);
   int bin = 0;
@@ -227,8 +225,7 @@ class LocalGradientNoise {
     const int tiles_u = sigma_.cols;
     const int tiles_v = sigma_.rows;
     constexpr double kRayleigh30 = 0.8446;
-    // Counted into four interleaved copies, as countBins does, then added up.
-    std::array<int, 4 * kBins> counts{};
+    std::array<std::uint32_t, 4 * kBins> counts{};  // countBins' four copies
     std::array<int, kBins> histogram{};
     for (int tv = 0; tv < tiles_v; ++tv) {
       const int v0 = tv * rows_ / tiles_v;
@@ -238,19 +235,11 @@ class LocalGradientNoise {
         const int u1 = (tu + 1) * cols_ / tiles_u;
         counts.fill(0);
         for (int v = v0; v < v1; ++v) {
-          const float* row = magnitude.ptr<float>(v);
-          int u = u0;
-          for (; u + 4 <= u1; u += 4) {
-            ++counts[binOf(row[u])];
-            ++counts[kBins + binOf(row[u + 1])];
-            ++counts[2 * kBins + binOf(row[u + 2])];
-            ++counts[3 * kBins + binOf(row[u + 3])];
-          }
-          for (; u < u1; ++u) ++counts[binOf(row[u])];
+          countBins(magnitude.ptr<float>(v) + u0, u1 - u0, kBins, binOf, counts.data());
         }
         for (int b = 0; b < kBins; ++b) {
-          histogram[b] =
-              counts[b] + counts[kBins + b] + counts[2 * kBins + b] + counts[3 * kBins + b];
+          histogram[b] = static_cast<int>(counts[b] + counts[kBins + b] + counts[2 * kBins + b] +
+                                          counts[3 * kBins + b]);
         }
         // The value with 30 % of the tile below it, linear within its bin.
         const double rank = 0.3 * (u1 - u0) * (v1 - v0);
