@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/parallel_for.h"
 
 namespace fluoro_tracker {
 namespace imaging {
@@ -126,21 +127,22 @@ cv::Mat SilhouetteLibrary::normalizedShape(const cv::Mat& mask, const Eigen::Vec
 }
 
 std::vector<ShapeMatch> SilhouetteLibrary::match(const ImplantBlob& blob, int count,
-                                                 double roll_step_deg,
-                                                 double min_separation_deg) const {
+                                                 double roll_step_deg, double min_separation_deg,
+                                                 int threads) const {
   const cv::Moments m = cv::moments(blob.mask, true);
   if (m.m00 <= 0.0 || templates_.empty()) return {};
   const Eigen::Vector2d centroid(m.m10 / m.m00, m.m01 / m.m00);
   const int rolls = std::max(1, static_cast<int>(std::lround(360.0 / roll_step_deg)));
-  std::vector<ShapeMatch> all;
-  all.reserve(static_cast<std::size_t>(rolls) * templates_.size());
-  for (int r = 0; r < rolls; ++r) {
-    const double roll = 2.0 * kPi * r / rolls;
+  // Roll-major, as the tie order of the sort below depends on it.
+  std::vector<ShapeMatch> all(static_cast<std::size_t>(rolls) * templates_.size());
+  parallelFor(static_cast<std::size_t>(rolls), threads, [&](std::size_t r) {
+    const double roll = 2.0 * kPi * static_cast<double>(r) / rolls;
     const cv::Mat shape = normalizedShape(blob.mask, centroid, m.m00, roll);
     for (std::size_t t = 0; t < templates_.size(); ++t) {
-      all.push_back({static_cast<int>(t), roll, dissimilarity(shape, templates_[t].shape)});
+      all[r * templates_.size() + t] = {static_cast<int>(t), roll,
+                                        dissimilarity(shape, templates_[t].shape)};
     }
-  }
+  });
   std::sort(all.begin(), all.end(), [](const ShapeMatch& a, const ShapeMatch& b) {
     return a.dissimilarity < b.dissimilarity;
   });
@@ -165,7 +167,7 @@ std::vector<ShapeMatch> SilhouetteLibrary::match(const ImplantBlob& blob, int co
 std::vector<EdgeMatch> SilhouetteLibrary::matchEdges(
     const cv::Mat& edge_distance, const cv::Rect& search, const std::vector<double>& px_per_m,
     int count, double roll_step_deg, double position_step_px, double truncation_px,
-    double min_separation_deg, double min_separation_px) const {
+    double min_separation_deg, double min_separation_px, int threads) const {
   if (edge_distance.empty() || edge_distance.type() != CV_32F || count < 1) return {};
   // Truncated distances, so that a lookup is one read; padded with the truncation distance as
   // far as any outline reaches, so that a point beyond the frame reads what it costs.
@@ -190,12 +192,14 @@ std::vector<EdgeMatch> SilhouetteLibrary::matchEdges(
   // point and placement).
   const int columns = (area.width + step - 1) / step;
   const int rows = (area.height + step - 1) / step;
-  std::vector<double> sums(static_cast<std::size_t>(columns) * static_cast<std::size_t>(rows));
-  std::vector<EdgeMatch> best_per_orientation;
-  std::vector<cv::Point> offsets;
-  for (std::size_t t = 0; t < templates_.size(); ++t) {
+  // Templates are scored apart (threads may share them out) and their best placements gathered
+  // in template order, as the tie order of the sort below depends on it.
+  std::vector<std::vector<EdgeMatch>> best_per_template(templates_.size());
+  parallelFor(templates_.size(), threads, [&](std::size_t t) {
     const auto& outline = templates_[t].outline_m;
-    if (outline.empty()) continue;
+    if (outline.empty()) return;
+    std::vector<double> sums(static_cast<std::size_t>(columns) * static_cast<std::size_t>(rows));
+    std::vector<cv::Point> offsets;
     for (int r = 0; r < rolls; ++r) {
       const double roll = 2.0 * kPi * r / rolls;
       const Eigen::Matrix2d rotation = rollAboutBeam(roll).topLeftCorner<2, 2>();
@@ -227,9 +231,13 @@ std::vector<EdgeMatch> SilhouetteLibrary::matchEdges(
           }
         }
         best.mean_distance_px /= static_cast<double>(offsets.size());
-        best_per_orientation.push_back(best);
+        best_per_template[t].push_back(best);
       }
     }
+  });
+  std::vector<EdgeMatch> best_per_orientation;
+  for (const auto& matches : best_per_template) {
+    best_per_orientation.insert(best_per_orientation.end(), matches.begin(), matches.end());
   }
   std::sort(best_per_orientation.begin(), best_per_orientation.end(),
             [](const EdgeMatch& a, const EdgeMatch& b) {

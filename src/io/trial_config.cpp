@@ -232,7 +232,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "edge_offset_min_px",
                      "edge_offset_hold",
                      "corner_rounding",
-                     "prefetch_edge_maps",
+                     "threads",
                      "rendered_edges",
                      "edge_offset_tracking",
                      "contact_from_outer_iteration",
@@ -291,7 +291,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("edge_offset_min_px", &r.edge_offset_min_px);
   section.read("edge_offset_hold", &r.edge_offset_hold);
   section.read("corner_rounding", &r.corner_rounding);
-  section.read("prefetch_edge_maps", &r.prefetch_edge_maps);
+  section.read("threads", &r.threads);
   const YamlSection rendered_edges = section.child("rendered_edges");
   rendered_edges.allowOnly({"enabled", "saturation_mm"});
   rendered_edges.read("enabled", &r.rendered_edges.enabled);

@@ -8,6 +8,7 @@
 
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/median.h"
+#include "fluoro_tracker/parallel_for.h"
 #include "fluoro_tracker/registration/joint_envelope.h"
 #include "fluoro_tracker/registration/mirror_ambiguity.h"
 
@@ -49,7 +50,7 @@ std::optional<geometry::Pose> plausibleMatchPose(const imaging::SilhouetteLibrar
 std::vector<geometry::Pose> shapeMatchStarts(const imaging::SilhouetteLibrary& library,
                                              const std::vector<imaging::ImplantBlob>& blobs,
                                              const geometry::XrayCamera& camera,
-                                             const PoseSearchSettings& settings) {
+                                             const PoseSearchSettings& settings, int threads) {
   const int count = settings.matches_per_bone;
   struct Start {
     double dissimilarity;
@@ -58,7 +59,9 @@ std::vector<geometry::Pose> shapeMatchStarts(const imaging::SilhouetteLibrary& l
   };
   std::vector<Start> starts;
   for (std::size_t b = 0; b < blobs.size(); ++b) {
-    for (const auto& match : library.match(blobs[b], count, settings.roll_step_deg)) {
+    for (const auto& match :
+         library.match(blobs[b], count, settings.roll_step_deg,
+                       imaging::SilhouetteLibrary::kShapeMinSeparationDeg, threads)) {
       if (const auto pose = plausibleMatchPose(library, match, blobs[b], camera, settings)) {
         starts.push_back({match.dissimilarity, b, *pose});
       }
@@ -88,7 +91,7 @@ std::vector<geometry::Pose> edgeMatchStarts(const imaging::SilhouetteLibrary& li
                                             const std::vector<imaging::ImplantBlob>& blobs,
                                             const imaging::EdgeMap& coarse,
                                             const std::vector<double>& depths,
-                                            const PoseSearchSettings& settings) {
+                                            const PoseSearchSettings& settings, int threads) {
   if (depths.empty()) return {};
   const geometry::XrayCamera& camera = coarse.camera();
   const double focal = std::sqrt(camera.fx() * camera.fy());
@@ -118,7 +121,9 @@ std::vector<geometry::Pose> edgeMatchStarts(const imaging::SilhouetteLibrary& li
         std::max(settings.edge_position_step_px, std::max(box.width, box.height) / 30.0);
     for (const imaging::EdgeMatch& match :
          library.matchEdges(edge_distance, box, px_per_m, settings.edge_matches_per_bone,
-                            settings.edge_roll_step_deg, step, kTruncationPx)) {
+                            settings.edge_roll_step_deg, step, kTruncationPx,
+                            imaging::SilhouetteLibrary::kEdgeMinSeparationDeg,
+                            imaging::SilhouetteLibrary::kEdgeMinSeparationPx, threads)) {
       poses.push_back(library.cameraFromMesh(match, camera));
     }
   }
@@ -334,6 +339,7 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
                                         const std::vector<geometry::Pose>& seeds,
                                         const std::vector<imaging::ImplantBlob>& blobs) const {
   const std::size_t bones = registrar_->bones().size();
+  const int threads = registrar_->settings().threads;
   const ViewImage& first = views.front();
   PoseSearchResult found;
   found.regions = static_cast<int>(blobs.size());
@@ -374,13 +380,19 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
     };
     takeBest(&screened, settings_.refined_per_bone);
     takeBest(&screened_wide, settings_.wide_refined_per_bone);
-    for (const geometry::Pose& s : refined_starts) {
-      RegistrationResult refined;
+    // Each start is refined on its own, so threads may share them out; the hypotheses are then
+    // merged in the starts' order, as one thread would.
+    std::vector<std::optional<RegistrationResult>> results(refined_starts.size());
+    parallelFor(refined_starts.size(), threads, [&](std::size_t k) {
       try {
-        refined = pass.refiners[b]->solve(views, {s});
+        results[k] = pass.refiners[b]->solve(views, {refined_starts[k]});
       } catch (const InputError&) {
-        continue;  // a start behind the source or outside the views: not a hypothesis
+        // a start behind the source or outside the views: not a hypothesis
       }
+    });
+    for (std::optional<RegistrationResult>& result : results) {
+      if (!result) continue;
+      RegistrationResult refined = std::move(*result);
       ++found.hypotheses;
       // A refinement stopped for travelling too far from its start (diverged) still returns the
       // last pose within reach, measured like any other: a start 100 mm off along the beam (a
@@ -428,7 +440,9 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
     std::vector<JointStart> found_joints;
     for (const JointLibrary& jl : joint_libraries_) {
       for (const auto& blob : candidates) {
-        for (const auto& match : jl.library->match(blob, 2, settings_.roll_step_deg)) {
+        for (const auto& match :
+             jl.library->match(blob, 2, settings_.roll_step_deg,
+                               imaging::SilhouetteLibrary::kShapeMinSeparationDeg, threads)) {
           if (const auto parent =
                   plausibleMatchPose(*jl.library, match, blob, first.camera, settings_)) {
             found_joints.push_back(
@@ -465,7 +479,7 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
                                   const std::vector<imaging::ImplantBlob>& candidates,
                                   std::vector<geometry::Pose>* starts) {
     const std::vector<geometry::Pose> shape_starts =
-        shapeMatchStarts(*libraries_[b], candidates, first.camera, settings_);
+        shapeMatchStarts(*libraries_[b], candidates, first.camera, settings_, threads);
     for (const geometry::Pose& camera_pose : shape_starts) {
       for (const double depth_factor : {1.0, 0.93, 0.86}) {
         geometry::Pose scaled = camera_pose;
@@ -484,7 +498,7 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
         depth_hints[b].push_back(shape_starts[k].translation().z());
       }
       for (const geometry::Pose& camera_pose :
-           edgeMatchStarts(*libraries_[b], regions, coarse, depth_hints[b], settings_)) {
+           edgeMatchStarts(*libraries_[b], regions, coarse, depth_hints[b], settings_, threads)) {
         addStart(&edge_starts, camera_pose);
       }
     }

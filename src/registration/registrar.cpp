@@ -545,6 +545,7 @@ void RegistrationSettings::validate() const {
   if (outer_iterations < 1 || solver_iterations < 1) {
     throw InputError("registration: outer_iterations and solver_iterations must be >= 1");
   }
+  if (threads < 1) throw InputError("registration: threads must be >= 1");
   if (!std::isfinite(robust_scale_final_px)) {
     throw InputError("registration: robust_scale_final_px must be a number (<= 0: off)");
   }
@@ -894,7 +895,7 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
   // The finer scales' maps are built on another core while the first is solved.
   std::optional<EdgeMapPrefetch> prefetch;
   if (!reuse_maps) {
-    prefetch.emplace(views, settings_.edges, rois, settings_.scales, settings_.prefetch_edge_maps);
+    prefetch.emplace(views, settings_.edges, rois, settings_.scales, settings_.threads > 1);
   }
   for (std::size_t scale_index = reuse_maps ? settings_.scales.size() - 1 : 0;
        scale_index < settings_.scales.size(); ++scale_index) {

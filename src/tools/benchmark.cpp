@@ -855,10 +855,9 @@ int main(int argc, char** argv) {
       po::value(&settings.corner_rounding)->default_value(settings.corner_rounding),
       "compare the contour near sharp turns where the edge map's smoothing puts the edges "
       "(true/false)")(
-      "prefetch-edge-maps",
-      po::value(&settings.prefetch_edge_maps)->default_value(settings.prefetch_edge_maps),
-      "build the finer scales' edge maps on a second thread while the coarser scales are solved "
-      "(true/false; the same results)")(
+      "threads", po::value(&settings.threads)->default_value(settings.threads),
+      "threads per registration: 2 or more build the finer scales' edge maps ahead and let the "
+      "automatic search match and refine on that many (the same results as 1)")(
       "rendered-edges",
       po::value(&settings.rendered_edges.enabled)->default_value(settings.rendered_edges.enabled),
       "instead of corner rounding, compare the contour where the edge map finds the edges of "

@@ -60,8 +60,11 @@ class SilhouetteLibrary {
 
   // The `count` best matches of a region over all templates and rolls (every roll_step_deg),
   // best first, no two closer than min_separation_deg in orientation.
+  // `threads`: how many share the rolls out (parallelFor; the same matches as one).
+  static constexpr double kShapeMinSeparationDeg = 20.0;
   std::vector<ShapeMatch> match(const ImplantBlob& blob, int count, double roll_step_deg = 10.0,
-                                double min_separation_deg = 20.0) const;
+                                double min_separation_deg = kShapeMinSeparationDeg,
+                                int threads = 1) const;
 
   // Chamfer matching: every template and roll (every roll_step_deg), at each projection scale
   // (pixels per metre at the bone, i.e. focal length / distance) and at mesh-origin positions
@@ -72,12 +75,17 @@ class SilhouetteLibrary {
   // Returns the `count` best placements, no two with orientations closer than
   // min_separation_deg and origins closer than min_separation_px. Unlike region matching it
   // needs no region of the implant alone: a bone whose silhouette merges with its neighbour's
-  // is still found by the edges of its own outline.
+  // is still found by the edges of its own outline. `threads`: how many share the templates out
+  // (parallelFor; the same placements as one).
+  static constexpr double kEdgeMinSeparationDeg = 15.0;
+  static constexpr double kEdgeMinSeparationPx = 6.0;
   std::vector<EdgeMatch> matchEdges(const cv::Mat& edge_distance, const cv::Rect& search,
                                     const std::vector<double>& px_per_m, int count,
                                     double roll_step_deg = 15.0, double position_step_px = 3.0,
-                                    double truncation_px = 3.0, double min_separation_deg = 15.0,
-                                    double min_separation_px = 6.0) const;
+                                    double truncation_px = 3.0,
+                                    double min_separation_deg = kEdgeMinSeparationDeg,
+                                    double min_separation_px = kEdgeMinSeparationPx,
+                                    int threads = 1) const;
 
   // The mesh pose, in the optical frame of `camera` (whose pixels edge_distance had), that an
   // edge match implies.

@@ -292,10 +292,12 @@ struct RegistrationSettings {
   // only 87 -> 90 % on seed 7; success over all 2,000 frames of the four protocols 1,862 ->
   // 1,859.
   bool corner_rounding = true;
-  // With more than one scale, build the finer scales' edge maps on a second thread while the
-  // coarser scales are solved (registration::EdgeMapPrefetch; the same maps, so the same
-  // results). Off: one thread, for a caller that runs several registrations side by side.
-  bool prefetch_edge_maps = true;
+  // Threads a registration may use. With 2 or more, the finer scales' edge maps are built on a
+  // second thread while the first scale is solved (registration::EdgeMapPrefetch), and the
+  // automatic search (registration::PoseSearch) matches silhouettes and refines its starts on
+  // that many; the results are the same as with 1, which a caller running several
+  // registrations side by side may prefer.
+  int threads = 2;
   RenderedEdgeSettings rendered_edges;
   EdgeOffsetTrackingSettings edge_offset_tracking;
   // Contact penalties join at this outer iteration of the finest scale (0: from the start).

@@ -353,7 +353,7 @@ registration:
   parameterisation: parent_relative
   edge_offset_hold: false
   corner_rounding: false
-  prefetch_edge_maps: false
+  threads: 1
   rendered_edges: {enabled: true, saturation_mm: 2.5}
   edge_offset_min_px: 0.0
   edge_offset_tracking: {enabled: false, frame_sd_px: 0.3, drift_px: 0.05}
@@ -412,7 +412,7 @@ registration:
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_final_px, 1.5);
   EXPECT_FALSE(c.registration.edge_offset_hold);
   EXPECT_FALSE(c.registration.corner_rounding);
-  EXPECT_FALSE(c.registration.prefetch_edge_maps);
+  EXPECT_EQ(c.registration.threads, 1);
   EXPECT_TRUE(c.registration.rendered_edges.enabled);
   EXPECT_DOUBLE_EQ(c.registration.rendered_edges.saturation_mm, 2.5);
   EXPECT_FALSE(c.registration.edge_offset_tracking.enabled);
@@ -514,7 +514,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.registration.edge_offset_min_px, d.edge_offset_min_px);
   EXPECT_EQ(c.registration.edge_offset_hold, d.edge_offset_hold);
   EXPECT_EQ(c.registration.corner_rounding, d.corner_rounding);
-  EXPECT_EQ(c.registration.prefetch_edge_maps, d.prefetch_edge_maps);
+  EXPECT_EQ(c.registration.threads, d.threads);
   EXPECT_EQ(c.registration.rendered_edges.enabled, d.rendered_edges.enabled);
   EXPECT_EQ(c.registration.rendered_edges.saturation_mm, d.rendered_edges.saturation_mm);
   EXPECT_EQ(c.registration.contact_from_outer_iteration, d.contact_from_outer_iteration);

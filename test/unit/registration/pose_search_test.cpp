@@ -156,6 +156,46 @@ TEST(SilhouetteLibrary, EdgeMatchingPlacesTheTrayOnItsOutline) {
   EXPECT_LT(best_angle, 20.0);
 }
 
+// Matching on several threads shares the rolls (shape) or templates (edges) out and gives the
+// same matches, in the same order, as one thread.
+TEST(SilhouetteLibrary, MatchesTheSameOnSeveralThreads) {
+  sim::TrialSimulatorSettings s;
+  s.motion.frames = 10;
+  const sim::TrialSimulator sim(s);
+  std::mt19937_64 rng(3);
+  const auto frame = sim.render(5, &rng);
+  const geometry::XrayCamera& camera = sim.views()[0].camera;
+  const imaging::SilhouetteLibrary library(sim.implants().femoral_component);
+  const auto blobs = imaging::findImplantBlobs(frame.images[0]);
+  ASSERT_FALSE(blobs.empty());
+  const auto one = library.match(blobs[0], 6, 10.0, 20.0, 1);
+  const auto three = library.match(blobs[0], 6, 10.0, 20.0, 3);
+  ASSERT_EQ(one.size(), 6u);
+  ASSERT_EQ(three.size(), one.size());
+  for (std::size_t k = 0; k < one.size(); ++k) {
+    EXPECT_EQ(one[k].template_index, three[k].template_index) << k;
+    EXPECT_EQ(one[k].roll_rad, three[k].roll_rad) << k;
+    EXPECT_EQ(one[k].dissimilarity, three[k].dissimilarity) << k;
+  }
+  const imaging::EdgeMap coarse(frame.images[0], camera, imaging::EdgeMapSettings(), cv::Rect(),
+                                0.25);
+  const cv::Mat distance = coarse.unsignedDistance(3.0);
+  const cv::Rect search(0, 0, distance.cols, distance.rows);
+  const double px_per_m = coarse.camera().fx() / 1.0;  // the bone about 1 m from the source
+  const auto edges_one =
+      library.matchEdges(distance, search, {px_per_m}, 5, 30.0, 6.0, 3.0, 15.0, 6.0, 1);
+  const auto edges_two =
+      library.matchEdges(distance, search, {px_per_m}, 5, 30.0, 6.0, 3.0, 15.0, 6.0, 2);
+  ASSERT_EQ(edges_one.size(), 5u);
+  ASSERT_EQ(edges_two.size(), edges_one.size());
+  for (std::size_t k = 0; k < edges_one.size(); ++k) {
+    EXPECT_EQ(edges_one[k].template_index, edges_two[k].template_index) << k;
+    EXPECT_EQ(edges_one[k].roll_rad, edges_two[k].roll_rad) << k;
+    EXPECT_EQ(edges_one[k].origin_px, edges_two[k].origin_px) << k;
+    EXPECT_EQ(edges_one[k].mean_distance_px, edges_two[k].mean_distance_px) << k;
+  }
+}
+
 // Placements reaching past the distance map's border count truncation_px for the points
 // outside: the same placements and scores as on the map padded with that distance, where every
 // point lies inside (the border and interior paths of the search agree).

@@ -140,10 +140,10 @@ TEST(Registrar, PrefetchingEdgeMapsLeavesTheResultUnchanged) {
        {std::vector<double>{0.5, 1.0}, std::vector<double>{0.25, 0.5, 1.0}}) {
     registration::RegistrationSettings settings;
     settings.scales = scales;
-    settings.prefetch_edge_maps = true;
+    settings.threads = 2;
     const auto prefetched =
         registration::Registrar(scene.bones, settings).solve(scene.views, start);
-    settings.prefetch_edge_maps = false;
+    settings.threads = 1;
     const auto in_turn = registration::Registrar(scene.bones, settings).solve(scene.views, start);
     EXPECT_EQ(prefetched.final_cost, in_turn.final_cost);
     for (int b = 0; b < 2; ++b) {
@@ -152,6 +152,9 @@ TEST(Registrar, PrefetchingEdgeMapsLeavesTheResultUnchanged) {
     EXPECT_TRUE(registration::meetsSuccessCriterion(
         registration::poseError(prefetched.poses[1], truth[1], scene.cameraFromFixed())));
   }
+  registration::RegistrationSettings none;
+  none.threads = 0;
+  EXPECT_THROW_WITH(registration::Registrar(scene.bones, none), "threads must be >= 1");
 }
 
 // The tibia starts pushed 2 mm up into the femoral component (and both bones off in other
