@@ -26,6 +26,26 @@ using test_support::simulatedKneeRegistrar;
 
 namespace {
 
+// The simulator's default trial cut to ten frames, and one of its frames (noise seed 3): what
+// the silhouette library's tests match against.
+struct TenFrameScene {
+  static sim::TrialSimulatorSettings settings() {
+    sim::TrialSimulatorSettings s;
+    s.motion.frames = 10;
+    return s;
+  }
+  static sim::SimulatedFrame renderFrame(const sim::TrialSimulator& sim, int index) {
+    std::mt19937_64 rng(3);
+    return sim.render(index, &rng);
+  }
+  explicit TenFrameScene(int index)
+      : sim(settings()), frame(renderFrame(sim, index)), camera(sim.views()[0].camera) {}
+
+  const sim::TrialSimulator sim;
+  const sim::SimulatedFrame frame;
+  const geometry::XrayCamera camera;
+};
+
 // Each bone of a search's registration within the dissertation's success criterion of the
 // simulated frame's truth; `label` names the case in failure messages.
 void expectBothBonesWithinCriterion(const registration::RegistrationResult& found,
@@ -101,12 +121,8 @@ void expectARegionOf(const imaging::ImplantBlob& cut,
 }  // namespace
 
 TEST(SilhouetteLibrary, RecoversTheOrientationOfARenderedView) {
-  sim::TrialSimulatorSettings s;
-  s.motion.frames = 10;
-  const sim::TrialSimulator sim(s);
-  std::mt19937_64 rng(3);
-  const auto frame = sim.render(0, &rng);
-  const geometry::XrayCamera& camera = sim.views()[0].camera;
+  const TenFrameScene scene(0);
+  const auto& [sim, frame, camera] = scene;
   const Pose truth = camera.worldFromCamera().inverse() * frame.tibia;
   const imaging::SilhouetteLibrary library(sim.implants().tibial_tray);
   double best_angle = 180.0;
@@ -127,12 +143,8 @@ TEST(SilhouetteLibrary, RecoversTheOrientationOfARenderedView) {
 // truth, which the refinement that follows closes, and its origin within a few pixels, with no
 // region of the tray alone needed.
 TEST(SilhouetteLibrary, EdgeMatchingPlacesTheTrayOnItsOutline) {
-  sim::TrialSimulatorSettings s;
-  s.motion.frames = 10;
-  const sim::TrialSimulator sim(s);
-  std::mt19937_64 rng(3);
-  const auto frame = sim.render(5, &rng);  // deepest flexion: the components' regions merge
-  const geometry::XrayCamera& camera = sim.views()[0].camera;
+  const TenFrameScene scene(5);  // deepest flexion: the components' regions merge
+  const auto& [sim, frame, camera] = scene;
   const imaging::EdgeMap coarse(frame.images[0], camera, imaging::EdgeMapSettings(), cv::Rect(),
                                 0.25);
   const Pose truth = camera.worldFromCamera().inverse() * frame.tibia;
@@ -159,12 +171,8 @@ TEST(SilhouetteLibrary, EdgeMatchingPlacesTheTrayOnItsOutline) {
 // Matching on several threads shares the rolls (shape) or templates (edges) out and gives the
 // same matches, in the same order, as one thread.
 TEST(SilhouetteLibrary, MatchesTheSameOnSeveralThreads) {
-  sim::TrialSimulatorSettings s;
-  s.motion.frames = 10;
-  const sim::TrialSimulator sim(s);
-  std::mt19937_64 rng(3);
-  const auto frame = sim.render(5, &rng);
-  const geometry::XrayCamera& camera = sim.views()[0].camera;
+  const TenFrameScene scene(5);
+  const auto& [sim, frame, camera] = scene;
   const imaging::SilhouetteLibrary library(sim.implants().femoral_component);
   const auto blobs = imaging::findImplantBlobs(frame.images[0]);
   ASSERT_FALSE(blobs.empty());
