@@ -15,6 +15,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/parallel_for.h"
 #include "fluoro_tracker/registration/compressed_residuals_cost.h"
 #include "fluoro_tracker/registration/contact_cost.h"
 #include "fluoro_tracker/registration/contour_distance_cost.h"
@@ -678,6 +679,7 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
   // From the result, whose in-plane position and rotations are mostly right, rather than from
   // the start (measured on the crude protocol: 91 against 89 % success).
   const std::vector<geometry::Pose> base = result.poses;
+  std::vector<std::vector<geometry::Pose>> retry_starts;
   for (double shift_mm : settings_.depth_retry.shifts_mm) {
     std::vector<geometry::Pose> starts = base;
     for (std::size_t b = 0; b < starts.size(); ++b) {
@@ -687,7 +689,19 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
       in_camera.translation() += 1e-3 * shift_mm * centre.normalized();
       starts[b] = camera_from_fixed.inverse() * in_camera;
     }
-    RegistrationResult retry = solveChecked(views, starts, loaded, offset_priors);
+    retry_starts.push_back(std::move(starts));
+  }
+  // One thread solves a shift only if those before it left a bone in doubt; more threads solve
+  // them all at once and leave unused (and uncounted) the ones after the first that clears it.
+  std::vector<std::optional<RegistrationResult>> retries(retry_starts.size());
+  if (settings_.threads > 1) {
+    parallelFor(retry_starts.size(), settings_.threads, [&](std::size_t k) {
+      retries[k] = solveChecked(views, retry_starts[k], loaded, offset_priors);
+    });
+  }
+  for (std::size_t k = 0; k < retry_starts.size(); ++k) {
+    if (!retries[k]) retries[k] = solveChecked(views, retry_starts[k], loaded, offset_priors);
+    RegistrationResult& retry = *retries[k];
     counts.add(retry);
     const auto retry_rank = rank(retry);
     if (retry_rank < best_rank) {
@@ -727,11 +741,18 @@ void Registrar::retryReflections(const std::vector<ViewImage>& views,
     // (Kneel frame 0160), and the start is the only other evidence an image-only solve has.
     std::optional<RegistrationResult> best;
     double best_distance = std::numeric_limits<double>::infinity();
+    // Each candidate is solved from the same result, so threads may share them out.
+    std::vector<std::size_t> solved;
     for (std::size_t c = 0; c < candidates.size(); ++c) {
-      if (repeatsAReflection(candidates, c, pose, min_difference)) continue;
+      if (!repeatsAReflection(candidates, c, pose, min_difference)) solved.push_back(c);
+    }
+    std::vector<RegistrationResult> retries(solved.size());
+    parallelFor(solved.size(), settings_.threads, [&](std::size_t k) {
       std::vector<geometry::Pose> starts = result->poses;
-      starts[b] = camera_from_fixed.inverse() * candidates[c];
-      RegistrationResult retry = solveChecked(views, starts, loaded, offset_priors);
+      starts[b] = camera_from_fixed.inverse() * candidates[solved[k]];
+      retries[k] = solveChecked(views, starts, loaded, offset_priors);
+    });
+    for (RegistrationResult& retry : retries) {
       counts.add(retry);
       if (retry.diverged[b] || !(retry.quality[b].contour_inlier_fraction > required_inliers) ||
           !(retry.final_cost < result->final_cost) ||

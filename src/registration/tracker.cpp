@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 
 #include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/parallel_for.h"
 #include "fluoro_tracker/registration/motion_prediction.h"
 
 namespace fluoro_tracker {
@@ -178,8 +180,17 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
     std::vector<std::vector<geometry::Pose>> starts = {guess};
     if (previous_.size() == poses_.size()) starts.push_back(poses_);
     auto best_rank = resultRank(frame.result, quality);
-    for (const auto& retry_start : starts) {
-      RegistrationResult retry = registrar_->solve(views, retry_start, loaded, priors);
+    // As the registrar's depth retry: with threads to spare both starts are solved at once, and
+    // the second is left unused when the first clears the doubt.
+    std::vector<std::optional<RegistrationResult>> retries(starts.size());
+    if (registrar_->settings().threads > 1) {
+      parallelFor(starts.size(), registrar_->settings().threads, [&](std::size_t k) {
+        retries[k] = registrar_->solve(views, starts[k], loaded, priors);
+      });
+    }
+    for (std::size_t k = 0; k < starts.size(); ++k) {
+      if (!retries[k]) retries[k] = registrar_->solve(views, starts[k], loaded, priors);
+      RegistrationResult& retry = *retries[k];
       const auto rank = resultRank(retry, quality);
       if (rank < best_rank) {
         best_rank = rank;

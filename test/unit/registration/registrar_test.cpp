@@ -642,6 +642,15 @@ TEST(Registrar, DepthRetryRecoversAStartFarAlongTheBeam) {
   }
   // The retries' solves are counted.
   EXPECT_GT(retried.cost_evaluations, single.cost_evaluations);
+  // Solved side by side (threads: 2, the default) or in turn, the retries give the same result.
+  settings.threads = 1;
+  const auto in_turn =
+      registration::Registrar(scene.bones, settings, {kneeJoint()}).solve(views, start);
+  EXPECT_EQ(in_turn.final_cost, retried.final_cost);
+  EXPECT_EQ(in_turn.cost_evaluations, retried.cost_evaluations);
+  for (int b = 0; b < 2; ++b) {
+    EXPECT_TRUE(in_turn.poses[b].matrix() == retried.poses[b].matrix()) << b;
+  }
 }
 
 TEST(MirrorAmbiguity, MirrorKeepsTheSilhouetteOfASymmetricMeshAndNeutralIsMeasuredInBounds) {
@@ -1067,6 +1076,18 @@ TEST(Registrar, ReflectionRetryFreesTheRealKneelTrayFromItsTiltReflection) {
         << frame.name;
     // The retry's solves are counted.
     EXPECT_GT(freed.cost_evaluations, trapped.cost_evaluations) << frame.name;
+    if (k == 0) {
+      // The reflections solved side by side (threads: 2, the default) or in turn: the same.
+      registration::RegistrationSettings one_thread = settings;
+      one_thread.threads = 1;
+      const auto in_turn =
+          registration::Registrar(kneel.registrar->bones(), one_thread).solve(views, starts);
+      EXPECT_EQ(in_turn.final_cost, freed.final_cost);
+      EXPECT_EQ(in_turn.cost_evaluations, freed.cost_evaluations);
+      for (int b = 0; b < 2; ++b) {
+        EXPECT_TRUE(in_turn.poses[b].matrix() == freed.poses[b].matrix()) << b;
+      }
+    }
   }
 }
 
