@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <exception>
 #include <initializer_list>
 #include <limits>
 #include <map>
@@ -693,10 +694,15 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
   }
   // One thread solves a shift only if those before it left a bone in doubt; more threads solve
   // them all at once and leave unused (and uncounted) the ones after the first that clears it.
+  // A speculative solve that throws is left to the loop below, which throws only if it gets
+  // that far, as one thread would.
   std::vector<std::optional<RegistrationResult>> retries(retry_starts.size());
   if (settings_.threads > 1) {
     parallelFor(retry_starts.size(), settings_.threads, [&](std::size_t k) {
-      retries[k] = solveChecked(views, retry_starts[k], loaded, offset_priors);
+      try {
+        retries[k] = solveChecked(views, retry_starts[k], loaded, offset_priors);
+      } catch (const std::exception&) {
+      }
     });
   }
   for (std::size_t k = 0; k < retry_starts.size(); ++k) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <exception>
 #include <optional>
 
 #include "fluoro_tracker/input_error.h"
@@ -180,12 +181,16 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
     std::vector<std::vector<geometry::Pose>> starts = {guess};
     if (previous_.size() == poses_.size()) starts.push_back(poses_);
     auto best_rank = resultRank(frame.result, quality);
-    // As the registrar's depth retry: with threads to spare both starts are solved at once, and
-    // the second is left unused when the first clears the doubt.
+    // As the registrar's depth retry: with threads to spare both starts are solved at once, the
+    // second left unused when the first clears the doubt (and one that throws re-solved below,
+    // so that it throws only where one thread would).
     std::vector<std::optional<RegistrationResult>> retries(starts.size());
     if (registrar_->settings().threads > 1) {
       parallelFor(starts.size(), registrar_->settings().threads, [&](std::size_t k) {
-        retries[k] = registrar_->solve(views, starts[k], loaded, priors);
+        try {
+          retries[k] = registrar_->solve(views, starts[k], loaded, priors);
+        } catch (const std::exception&) {
+        }
       });
     }
     for (std::size_t k = 0; k < starts.size(); ++k) {
