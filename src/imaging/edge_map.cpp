@@ -31,13 +31,14 @@ void countBins(const T* row, int cols, int levels, BinOf bin_of, std::uint32_t* 
   for (; u < cols; ++u) ++h[bin_of(row[u])];
 }
 
-// The histogram: the four copies countBins filled, added up.
-std::vector<std::size_t> sumBins(const std::vector<std::uint32_t>& histogram, int levels) {
-  std::vector<std::size_t> sum(static_cast<std::size_t>(levels), 0);
-  for (int k = 0; k < 4; ++k) {
-    for (int g = 0; g < levels; ++g) sum[g] += histogram[static_cast<std::size_t>(k * levels + g)];
+// The histogram: the four copies countBins filled (4 x levels), added up into `histogram`.
+template <typename Count>
+void sumBins(const std::uint32_t* counts, int levels, Count* histogram) {
+  for (int g = 0; g < levels; ++g) {
+    histogram[g] = static_cast<Count>(counts[g]) + static_cast<Count>(counts[levels + g]) +
+                   static_cast<Count>(counts[2 * levels + g]) +
+                   static_cast<Count>(counts[3 * levels + g]);
   }
-  return sum;
 }
 
 // Grey levels below which `low` and `high` fractions of an 8- or 16-bit region lie, from its
@@ -53,7 +54,8 @@ std::pair<double, double> percentiles(const cv::Mat& region, double low, double 
       countBins(region.ptr<std::uint16_t>(v), region.cols, levels, identity, counts.data());
     }
   }
-  const std::vector<std::size_t> histogram = sumBins(counts, levels);
+  std::vector<std::size_t> histogram(static_cast<std::size_t>(levels));
+  sumBins(counts.data(), levels, histogram.data());
   const double total = static_cast<double>(region.total());
   double lo = 0.0;
   double hi = levels - 1.0;
@@ -108,7 +110,8 @@ float percentile(const cv::Mat& values, double fraction) {
   for (int v = 0; v < values.rows; ++v) {
     countBins(values.ptr<float>(v), values.cols, kBins, bin_of, counts.data());
   }
-  const std::vector<std::size_t> histogram = sumBins(counts, kBins);
+  std::vector<std::size_t> histogram(kBins);
+  sumBins(counts.data(), kBins, histogram.data());
   int bin = 0;
   std::size_t below = 0;
   while (below + histogram[bin] <= k) below += histogram[bin++];
@@ -237,10 +240,7 @@ class LocalGradientNoise {
         for (int v = v0; v < v1; ++v) {
           countBins(magnitude.ptr<float>(v) + u0, u1 - u0, kBins, binOf, counts.data());
         }
-        for (int b = 0; b < kBins; ++b) {
-          histogram[b] = static_cast<int>(counts[b] + counts[kBins + b] + counts[2 * kBins + b] +
-                                          counts[3 * kBins + b]);
-        }
+        sumBins(counts.data(), kBins, histogram.data());
         // The value with 30 % of the tile below it, linear within its bin.
         const double rank = 0.3 * (u1 - u0) * (v1 - v0);
         int bin = 0;
