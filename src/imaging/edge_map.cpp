@@ -571,6 +571,12 @@ float EdgeMap::computeDistance(int u, int v, int k) const {
   return out;
 }
 
+EdgeMap EdgeMap::unshared() const {
+  EdgeMap copy = *this;
+  copy.distance_ = distance_.clone();
+  return copy;
+}
+
 cv::Mat EdgeMap::unsignedDistance(double truncation_px) const {
   const double limit = std::min(truncation_px, max_distance_);  // what far pixels read
   cv::Mat result(distance_.size(), CV_32F, cv::Scalar(limit));

@@ -668,7 +668,8 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
           "and view");
     }
   }
-  RegistrationResult result = solveChecked(views, initial_poses, loaded, offset_priors);
+  RegistrationResult result =
+      solveChecked(views, initial_poses, loaded, offset_priors, settings_.threads);
   retryReflections(views, initial_poses, loaded, offset_priors, &result);
   if (!settings_.depth_retry.enabled) return result;
   // Fewer bones not ok first (lost counts twice), then more contour inliers.
@@ -700,13 +701,15 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
   if (settings_.threads > 1) {
     parallelFor(retry_starts.size(), settings_.threads, [&](std::size_t k) {
       try {
-        retries[k] = solveChecked(views, retry_starts[k], loaded, offset_priors);
+        retries[k] = solveChecked(views, retry_starts[k], loaded, offset_priors, 1);
       } catch (const std::exception&) {
       }
     });
   }
   for (std::size_t k = 0; k < retry_starts.size(); ++k) {
-    if (!retries[k]) retries[k] = solveChecked(views, retry_starts[k], loaded, offset_priors);
+    if (!retries[k]) {
+      retries[k] = solveChecked(views, retry_starts[k], loaded, offset_priors, settings_.threads);
+    }
     RegistrationResult& retry = *retries[k];
     counts.add(retry);
     const auto retry_rank = rank(retry);
@@ -756,7 +759,8 @@ void Registrar::retryReflections(const std::vector<ViewImage>& views,
     parallelFor(solved.size(), settings_.threads, [&](std::size_t k) {
       std::vector<geometry::Pose> starts = result->poses;
       starts[b] = camera_from_fixed.inverse() * candidates[solved[k]];
-      retries[k] = solveChecked(views, starts, loaded, offset_priors);
+      retries[k] = solveChecked(views, starts, loaded, offset_priors,
+                                solved.size() > 1 ? 1 : settings_.threads);
     });
     for (RegistrationResult& retry : retries) {
       counts.add(retry);
@@ -780,7 +784,8 @@ void Registrar::retryReflections(const std::vector<ViewImage>& views,
 RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
                                            const std::vector<geometry::Pose>& initial_poses,
                                            const std::vector<bool>& loaded,
-                                           const EdgeOffsetPriors& offset_priors) const {
+                                           const EdgeOffsetPriors& offset_priors,
+                                           int threads) const {
   std::vector<imaging::EdgeMap> finest_maps;
   RegistrationResult result = solveFrom(views, initial_poses, loaded, offset_priors, &finest_maps);
   // A second view sees the mirror from another side: only single views are ambiguous.
@@ -811,9 +816,8 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
     if (!(required_deviation > 0.0)) continue;
     double best_deviation = std::numeric_limits<double>::infinity();
     SolveCounts counts(result);
-    // The candidates' joint figures and image quality are worked out for the one kept only.
-    Solution best;
-    bool replaced = false;
+    // The candidates worth a solve: each start is the solution with the child reflected.
+    std::vector<std::vector<geometry::Pose>> candidate_starts;
     for (std::size_t c = 0; c < candidates.size(); ++c) {
       const geometry::Pose& candidate = candidates[c];
       if (geometry::rotationAngleBetween(candidate.linear(), child.linear()) >
@@ -826,12 +830,27 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
       if (deviation(starts) > required_deviation + settings_.mirror_check.start_deviation_excess) {
         continue;
       }
-      // The mirror differs from the solution in rotation only: the finest scale's maps serve.
-      const CandidateGate gate{
-          settings_.mirror_check.abandon_cost_ratio * first_cost, deviation,
-          required_deviation + settings_.mirror_check.abandon_deviation_excess};
-      Solution candidate_solution =
-          solveUnfinished(views, starts, loaded, offset_priors, &finest_maps, &gate);
+      candidate_starts.push_back(std::move(starts));
+    }
+    const CandidateGate gate{settings_.mirror_check.abandon_cost_ratio * first_cost, deviation,
+                             required_deviation + settings_.mirror_check.abandon_deviation_excess};
+    // Each candidate is solved from the same solution and judged on its own, so threads may
+    // share them out; a thread then works on maps of its own (EdgeMap::unshared). The mirror
+    // differs from the solution in rotation only: the finest scale's maps serve.
+    const bool side_by_side = threads > 1 && candidate_starts.size() > 1;
+    std::vector<Solution> solved(candidate_starts.size());
+    parallelFor(candidate_starts.size(), side_by_side ? threads : 1, [&](std::size_t k) {
+      std::vector<imaging::EdgeMap> own_maps;
+      if (side_by_side) {
+        for (const imaging::EdgeMap& map : finest_maps) own_maps.push_back(map.unshared());
+      }
+      solved[k] = solveUnfinished(views, candidate_starts[k], loaded, offset_priors,
+                                  side_by_side ? &own_maps : &finest_maps, &gate);
+    });
+    // The candidates' joint figures and image quality are worked out for the one kept only.
+    Solution best;
+    bool replaced = false;
+    for (Solution& candidate_solution : solved) {
       const RegistrationResult& mirror = candidate_solution.result;
       counts.add(mirror);
       if (candidate_solution.abandoned) continue;

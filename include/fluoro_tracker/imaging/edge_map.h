@@ -78,6 +78,11 @@ class EdgeMap {
   EdgeMap(const cv::Mat& image, const geometry::XrayCamera& camera, const EdgeMapSettings& settings,
           cv::Rect roi = cv::Rect(), double scale = 1.0);
 
+  // A copy whose signed distances are its own: the pixels worked out so far come along, those
+  // worked out later are not shared with this map or its other copies, so it may be used on
+  // another thread (the edges and their points, never changed, are still shared).
+  EdgeMap unshared() const;
+
   const geometry::XrayCamera& camera() const { return camera_; }
   const cv::Mat& edges() const { return edges_; }  // CV_8U, 255 on edges
   // |signed distance| at every pixel, truncated at `truncation_px` (chamfer matching), CV_32F.

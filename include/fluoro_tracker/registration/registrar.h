@@ -506,11 +506,12 @@ class Registrar {
                         const std::vector<geometry::Pose>& initial_poses,
                         const std::vector<bool>& loaded, const EdgeOffsetPriors& offset_priors,
                         RegistrationResult* result) const;
-  // solveFrom, then the mirror check (single view).
+  // solveFrom, then the mirror check (single view), whose candidates `threads` threads share
+  // (1 when the caller's other threads are busy).
   RegistrationResult solveChecked(const std::vector<ViewImage>& views,
                                   const std::vector<geometry::Pose>& initial_poses,
                                   const std::vector<bool>& loaded,
-                                  const EdgeOffsetPriors& offset_priors) const;
+                                  const EdgeOffsetPriors& offset_priors, int threads) const;
   // One registration from these starts (solve is this plus the mirror check), finished.
   // `finest_maps` (optional): when it holds maps, only the finest scale runs, on them; when
   // empty, it receives the finest scale's maps.

@@ -1,6 +1,9 @@
 #include "fluoro_tracker/imaging/edge_map.h"
 
+#include <functional>
 #include <limits>
+#include <thread>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
@@ -151,6 +154,43 @@ TEST(EdgeMap, DistanceIsToTheNearestEdgePointFoundByBruteForce) {
             << "pixel " << u << ", " << v << " truncation " << truncation;
       }
     }
+  }
+}
+
+// Copies made by unshared() work out their distances alone, so each may be sampled on its own
+// thread while the original is sampled on a third: all of them give the distances of a map
+// sampled by one thread.
+TEST(EdgeMap, UnsharedCopiesSampleOnTheirOwnThreads) {
+  const cv::Mat image = disc(false);
+  const imaging::EdgeMapSettings settings;
+  const EdgeMap map(image, kCamera, settings);
+  double d = 0.0;
+  double du = 0.0;
+  double dv = 0.0;
+  map.sample(100.0, 49.0, &d, &du, &dv);  // some pixels worked out before the copies
+  std::vector<EdgeMap> copies = {map.unshared(), map.unshared()};
+  const auto sample_all = [](const EdgeMap& m, std::vector<double>* out) {
+    for (int v = 0; v < m.edges().rows; ++v) {
+      for (int u = 0; u < m.edges().cols; ++u) {
+        double distance = 0.0;
+        double gu = 0.0;
+        double gv = 0.0;
+        m.sample(u + 0.25, v + 0.5, &distance, &gu, &gv);
+        out->push_back(distance);
+      }
+    }
+  };
+  std::vector<std::vector<double>> sampled(3);
+  std::thread first(sample_all, std::cref(copies[0]), &sampled[0]);
+  std::thread second(sample_all, std::cref(copies[1]), &sampled[1]);
+  sample_all(map, &sampled[2]);
+  first.join();
+  second.join();
+  std::vector<double> alone;
+  sample_all(EdgeMap(image, kCamera, settings), &alone);
+  for (const auto& s : sampled) {
+    ASSERT_EQ(s.size(), alone.size());
+    for (std::size_t k = 0; k < s.size(); ++k) ASSERT_EQ(s[k], alone[k]) << "sample " << k;
   }
 }
 

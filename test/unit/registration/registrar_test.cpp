@@ -598,6 +598,14 @@ TEST(Registrar, MirrorCheckReversesTheTiltAloneOfATurnedTray) {
     EXPECT_TRUE(registration::meetsSuccessCriterion(e))
         << bones[b].name << ": rotation " << e.rotation_deg.transpose() << " deg";
   }
+  // Two threads (the default) solve the three candidates side by side, each on maps of its own:
+  // the same poses, cost and evaluations as one thread solving them in turn.
+  ASSERT_EQ(settings.threads, 2);
+  settings.threads = 1;
+  const auto in_turn = registration::Registrar(bones, settings, {knee}).solve(views, start);
+  for (int b = 0; b < 2; ++b) EXPECT_TRUE(in_turn.poses[b].isApprox(with.poses[b], 0.0));
+  EXPECT_EQ(in_turn.final_cost, with.final_cost);
+  EXPECT_EQ(in_turn.cost_evaluations, with.cost_evaluations);
 }
 
 // Both bones start 20-26 mm too near the source and 3.4 deg off, from where the solve settles
