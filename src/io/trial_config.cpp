@@ -321,8 +321,9 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   const YamlSection mirror = section.child("mirror_check");
   mirror.allowOnly({"enabled", "cost_tolerance", "min_difference_deg", "max_difference_deg",
                     "min_neutral_gain", "tracking_turn_max_difference_deg", "outer_iterations",
-                    "solver_iterations", "turn_reflection", "mirror_reflection", "tilt_reflection",
-                    "abandon_cost_ratio", "abandon_deviation_excess", "start_deviation_excess",
+                    "solver_iterations", "continued_outer_iterations", "turn_reflection",
+                    "mirror_reflection", "tilt_reflection", "abandon_cost_ratio",
+                    "abandon_deviation_excess", "start_deviation_excess",
                     "neutral_internal_rotation_per_flexion"});
   mirror.read("enabled", &r.mirror_check.enabled);
   mirror.read("cost_tolerance", &r.mirror_check.cost_tolerance);
@@ -332,6 +333,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   mirror.read("tracking_turn_max_difference_deg", &r.mirror_check.tracking_turn_max_difference_deg);
   mirror.read("outer_iterations", &r.mirror_check.outer_iterations);
   mirror.read("solver_iterations", &r.mirror_check.solver_iterations);
+  mirror.read("continued_outer_iterations", &r.mirror_check.continued_outer_iterations);
   mirror.read("turn_reflection", &r.mirror_check.turn_reflection);
   mirror.read("mirror_reflection", &r.mirror_check.mirror_reflection);
   mirror.read("tilt_reflection", &r.mirror_check.tilt_reflection);

@@ -589,15 +589,16 @@ void RegistrationSettings::validate() const {
       !(mirror_check.max_difference_deg >= mirror_check.min_difference_deg) ||
       !(mirror_check.tracking_turn_max_difference_deg >= 0.0) ||
       mirror_check.outer_iterations < 1 || mirror_check.solver_iterations < 1 ||
-      !(mirror_check.abandon_cost_ratio > 0.0) || !(mirror_check.abandon_deviation_excess > 0.0) ||
+      mirror_check.continued_outer_iterations < 0 || !(mirror_check.abandon_cost_ratio > 0.0) ||
+      !(mirror_check.abandon_deviation_excess > 0.0) ||
       !(mirror_check.start_deviation_excess > 0.0) ||
       !std::isfinite(mirror_check.neutral_internal_rotation_per_flexion)) {
     throw InputError(
         "registration: mirror_check needs cost_tolerance >= 0, min_difference_deg >= 0, "
         "min_neutral_gain >= 0, a finite neutral_internal_rotation_per_flexion, "
         "max_difference_deg >= min_difference_deg, tracking_turn_max_difference_deg >= 0, "
-        "outer_iterations >= 1, solver_iterations >= 1, abandon_cost_ratio > 0, "
-        "abandon_deviation_excess > 0 and start_deviation_excess > 0");
+        "outer_iterations >= 1, solver_iterations >= 1, continued_outer_iterations >= 0, "
+        "abandon_cost_ratio > 0, abandon_deviation_excess > 0 and start_deviation_excess > 0");
   }
   if (!(reflection_retry.below_inlier_fraction >= 0.0 &&
         reflection_retry.below_inlier_fraction <= 1.0) ||
@@ -833,7 +834,8 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
       candidate_starts.push_back(std::move(starts));
     }
     const CandidateGate gate{settings_.mirror_check.abandon_cost_ratio * first_cost, deviation,
-                             required_deviation + settings_.mirror_check.abandon_deviation_excess};
+                             required_deviation + settings_.mirror_check.abandon_deviation_excess,
+                             required_deviation, settings_.mirror_check.continued_outer_iterations};
     // Each candidate is solved from the same solution and judged on its own, so threads may
     // share them out; a thread then works on maps of its own (EdgeMap::unshared). The mirror
     // differs from the solution in rotation only: the finest scale's maps serve.
@@ -938,6 +940,7 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
     }
   }
   std::vector<imaging::EdgeMap> maps;  // of the current scale; the finest one at the end
+  bool continued = false;              // a candidate's extra outer iterations (CandidateGate)
   // The finer scales' maps are built on another core while the first is solved.
   std::optional<EdgeMapPrefetch> prefetch;
   if (!reuse_maps) {
@@ -1197,6 +1200,13 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
         }
         const bool converged = max_translation < settings_.converged_translation_m &&
                                max_rotation < settings_.converged_rotation_rad;
+        if (gate != nullptr && !continued && !converged && finest &&
+            stage_index + 1 == schedule.size() && outer + 1 == outer_iterations &&
+            summary.final_cost <= gate->max_cost &&
+            gate->deviation(result.poses) < gate->keep_deviation) {
+          outer_iterations += gate->extra_outer_iterations;
+          continued = true;
+        }
         // The covariance of the registration's last solve only: each costs a Jacobian evaluation.
         const bool last_solve = finest && stage_index + 1 == schedule.size() &&
                                 (converged || outer + 1 == outer_iterations);

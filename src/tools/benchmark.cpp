@@ -814,6 +814,11 @@ int main(int argc, char** argv) {
       po::value(&settings.mirror_check.solver_iterations)
           ->default_value(settings.mirror_check.solver_iterations),
       "Levenberg-Marquardt iterations per outer iteration of the mirror's solve")(
+      "mirror-continued-outer-iterations",
+      po::value(&settings.mirror_check.continued_outer_iterations)
+          ->default_value(settings.mirror_check.continued_outer_iterations),
+      "outer iterations more for a mirror still in the running after its own, not converged "
+      "(0: none)")(
       "mirror-abandon-cost-ratio",
       po::value(&settings.mirror_check.abandon_cost_ratio)
           ->default_value(settings.mirror_check.abandon_cost_ratio),

@@ -123,6 +123,13 @@ struct MirrorCheckSettings {
   // candidates started beyond 1.5, most of which the gate above stopped after one outer
   // iteration. The benchmarks' results are unchanged; about 5 fewer cost evaluations per frame.
   double start_deviation_excess = 1.5;
+  // Outer iterations more for a candidate still in the running after its outer_iterations and
+  // not yet converged: its joint nearer neutral than it must be, its cost within
+  // abandon_cost_ratio x the solution's (0: none). Two outer iterations leave a reflected tray
+  // short of its minimum on poor images: logged on crude starts (poor images, seed 3), candidates
+  // near the true turn ended at 1.07-1.19 x the first solution's cost and were not kept, while
+  // solving the frame from its true pose ended below that cost.
+  int continued_outer_iterations = 2;
 };
 
 // Tracking (EdgeOffsetFilter): each bone's edge offset carried from frame to frame as a prior.
@@ -490,10 +497,14 @@ class Registrar {
   // Stops a mirror candidate's solve after an outer iteration that shows it will not be kept
   // (MirrorCheckSettings::abandon_cost_ratio): its cost above max_cost, or its joint's
   // deviation from neutral above max_deviation.
+  // After its planned outer iterations, a candidate not yet converged whose cost is at most
+  // max_cost and whose deviation is below keep_deviation gets extra_outer_iterations more.
   struct CandidateGate {
     double max_cost;
     std::function<double(const std::vector<geometry::Pose>&)> deviation;
     double max_deviation;
+    double keep_deviation;
+    int extra_outer_iterations;
   };
 
   // solve() but FCL's contact separation, which it adds to the solution it returns.

@@ -359,6 +359,7 @@ registration:
   edge_offset_tracking: {enabled: false, frame_sd_px: 0.3, drift_px: 0.05}
   edges: {clahe: true, canny_high: 60, thresholds_skip_saturated_borders: false}
   mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, solver_iterations: 5,
+                 continued_outer_iterations: 0,
                  turn_reflection: false, mirror_reflection: false, tilt_reflection: false, max_difference_deg: 30,
                  tracking_turn_max_difference_deg: 4, min_neutral_gain: 0.25,
                  abandon_cost_ratio: 3.5, abandon_deviation_excess: 0.5,
@@ -376,6 +377,7 @@ registration:
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.cost_tolerance, 0.2);
   EXPECT_EQ(c.registration.mirror_check.outer_iterations, 3);
   EXPECT_EQ(c.registration.mirror_check.solver_iterations, 5);
+  EXPECT_EQ(c.registration.mirror_check.continued_outer_iterations, 0);
   EXPECT_FALSE(c.registration.mirror_check.turn_reflection);
   EXPECT_FALSE(c.registration.mirror_check.mirror_reflection);
   EXPECT_FALSE(c.registration.mirror_check.tilt_reflection);

@@ -565,6 +565,66 @@ TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
   EXPECT_EQ(skipped.cost_evaluations, unchecked.cost_evaluations);
 }
 
+// A mirror candidate still in the running after its outer iterations is continued
+// (MirrorCheckSettings::continued_outer_iterations).
+TEST(Registrar, MirrorCheckContinuesACandidateStillInTheRunning) {
+  const Scene scene;
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const geometry::XrayCamera& camera = scene.camera();
+  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  const std::vector<Pose> start = {
+      truth[0],
+      camera.worldFromCamera() * registration::mirroredAcrossBeam(camera_from_fixed * truth[1])};
+  const registration::JointModel knee = kneeJoint();
+  registration::RegistrationSettings settings;
+  settings.corner_rounding = false;      // as in MirrorCheckChoosesTheTrayPoseNearerNeutral
+  settings.depth_retry.enabled = false;  // the mirror check alone
+  const std::vector<registration::ViewImage> views = {{scene.frame.images[0], camera}};
+  const auto solve = [&](int outer, int continued) {
+    settings.mirror_check.outer_iterations = outer;
+    settings.mirror_check.continued_outer_iterations = continued;
+    return registration::Registrar(scene.bones, settings, {knee}).solve(views, start);
+  };
+  const auto expect_same = [&](const registration::RegistrationResult& a,
+                               const registration::RegistrationResult& b) {
+    for (int k = 0; k < 2; ++k) EXPECT_TRUE(a.poses[k].isApprox(b.poses[k], 0.0)) << "bone " << k;
+    EXPECT_EQ(a.final_cost, b.final_cost);
+    EXPECT_EQ(a.cost_evaluations, b.cost_evaluations);
+  };
+  // One outer iteration leaves the kept candidate short of its minimum; continued by two, it
+  // is solved exactly as with three.
+  const auto cut_short = solve(1, 0);
+  const auto continued = solve(1, 2);
+  const auto three = solve(3, 0);
+  for (int b = 0; b < 2; ++b) {
+    EXPECT_TRUE(registration::meetsSuccessCriterion(
+        registration::poseError(continued.poses[b], truth[b], camera_from_fixed)))
+        << scene.bones[b].name;
+  }
+  EXPECT_LT(continued.final_cost, 0.9 * cut_short.final_cost);
+  expect_same(continued, three);
+
+  // A candidate that cannot be kept (asked to end all but exactly neutral) is not continued.
+  settings.mirror_check.enabled = false;
+  const auto unchecked = solve(1, 0);
+  settings.mirror_check.enabled = true;
+  const auto deviation = [&](const std::vector<Pose>& poses) {
+    return registration::neutralDeviation(
+        knee.ligaments, knee.coordinates(poses[0], poses[1]),
+        settings.mirror_check.neutral_internal_rotation_per_flexion);
+  };
+  settings.mirror_check.min_neutral_gain = deviation(unchecked.poses) - 1e-6;
+  settings.mirror_check.abandon_deviation_excess = 1e9;
+  settings.mirror_check.start_deviation_excess = 1e9;
+  const auto hopeless = solve(1, 0);
+  expect_same(solve(1, 2), hopeless);
+  EXPECT_GT(hopeless.cost_evaluations, unchecked.cost_evaluations);  // candidates were solved
+
+  settings.mirror_check.continued_outer_iterations = -1;
+  EXPECT_THROW_WITH(registration::Registrar(scene.bones, settings, {knee}),
+                    "continued_outer_iterations >= 0");
+}
+
 // A view turned 7 deg about the leg: the tray is seen nearly edge-on but turned about its stem.
 // Started with only its tilt on the wrong side of edge-on, the full mirror and the turn
 // reflection of that start are each off by twice the turn; only the tilt reflection (its turn
