@@ -68,6 +68,15 @@ registration::JointModel kneeJoint() {
   return knee;
 }
 
+// The scene with the tibial tray started on its mirror pose (through the plane along the beam),
+// which the single view cannot tell from the truth; the femur starts at its truth.
+struct MirroredTrayStart : Scene {
+  std::vector<Pose> truth = {frame.femur, frame.tibia};
+  std::vector<Pose> start = {
+      truth[0],
+      camera().worldFromCamera() * registration::mirroredAcrossBeam(cameraFromFixed() * truth[1])};
+};
+
 // Both bones of the scene 3.6-4.5 mm and 3 deg off in total.
 std::vector<Pose> perturbedStarts(const std::vector<Pose>& truth) {
   return {offset(truth[0], {0.0015, -0.001, 0.002}, {0.03, -0.04, 0.03}),
@@ -489,13 +498,10 @@ TEST(Registrar, ParentRelativeParameterisationReachesTheSameRegistration) {
 // single view cannot tell from the truth, the registration stays there without the mirror
 // check; with it, the pose nearer neutral adduction and axial rotation, the truth, is chosen.
 TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
-  const Scene scene;
-  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
-  const geometry::XrayCamera& camera = scene.camera();
-  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
-  const std::vector<Pose> start = {
-      truth[0],
-      camera.worldFromCamera() * registration::mirroredAcrossBeam(camera_from_fixed * truth[1])};
+  const MirroredTrayStart scene;
+  const std::vector<Pose>& truth = scene.truth;
+  const std::vector<Pose>& start = scene.start;
+  const Pose camera_from_fixed = scene.cameraFromFixed();
   const registration::JointModel knee = kneeJoint();
   registration::RegistrationSettings settings;
   // Corner rounding off: with it, the tray's corners tell this view's mirror from the truth and
@@ -510,7 +516,7 @@ TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
   ASSERT_GT(deviation(start), deviation(truth));
   settings.mirror_check.enabled = false;
   settings.depth_retry.enabled = false;  // the mirror check alone
-  const std::vector<registration::ViewImage> views = {{scene.frame.images[0], camera}};
+  const std::vector<registration::ViewImage>& views = scene.views;
   const auto unchecked = registration::Registrar(scene.bones, settings, {knee}).solve(views, start);
   ASSERT_FALSE(registration::meetsSuccessCriterion(
       registration::poseError(unchecked.poses[1], truth[1], camera_from_fixed)))
@@ -568,22 +574,17 @@ TEST(Registrar, MirrorCheckChoosesTheTrayPoseNearerNeutral) {
 // A mirror candidate still in the running after its outer iterations is continued
 // (MirrorCheckSettings::continued_outer_iterations).
 TEST(Registrar, MirrorCheckContinuesACandidateStillInTheRunning) {
-  const Scene scene;
-  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
-  const geometry::XrayCamera& camera = scene.camera();
-  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
-  const std::vector<Pose> start = {
-      truth[0],
-      camera.worldFromCamera() * registration::mirroredAcrossBeam(camera_from_fixed * truth[1])};
+  const MirroredTrayStart scene;
+  const std::vector<Pose>& truth = scene.truth;
+  const Pose camera_from_fixed = scene.cameraFromFixed();
   const registration::JointModel knee = kneeJoint();
   registration::RegistrationSettings settings;
   settings.corner_rounding = false;      // as in MirrorCheckChoosesTheTrayPoseNearerNeutral
   settings.depth_retry.enabled = false;  // the mirror check alone
-  const std::vector<registration::ViewImage> views = {{scene.frame.images[0], camera}};
   const auto solve = [&](int outer, int continued) {
     settings.mirror_check.outer_iterations = outer;
     settings.mirror_check.continued_outer_iterations = continued;
-    return registration::Registrar(scene.bones, settings, {knee}).solve(views, start);
+    return registration::Registrar(scene.bones, settings, {knee}).solve(scene.views, scene.start);
   };
   const auto expect_same = [&](const registration::RegistrationResult& a,
                                const registration::RegistrationResult& b) {
