@@ -348,9 +348,10 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   reflection_retry.read("below_inlier_fraction", &r.reflection_retry.below_inlier_fraction);
   reflection_retry.read("min_inlier_gain", &r.reflection_retry.min_inlier_gain);
   const YamlSection depth_retry = section.child("depth_retry");
-  depth_retry.allowOnly({"enabled", "shifts_mm"});
+  depth_retry.allowOnly({"enabled", "shifts_mm", "light_below_inlier_fraction"});
   depth_retry.read("enabled", &r.depth_retry.enabled);
   depth_retry.read("shifts_mm", &r.depth_retry.shifts_mm);
+  depth_retry.read("light_below_inlier_fraction", &r.depth_retry.light_below_inlier_fraction);
   const YamlSection edges = section.child("edges");
   edges.allowOnly({"window_low_percentile", "window_high_percentile", "clahe", "clahe_clip_limit",
                    "blur_sigma_px", "canny_low", "canny_high", "auto_high_fraction",

@@ -612,6 +612,10 @@ void RegistrationSettings::validate() const {
       throw InputError("registration: depth_retry: shifts_mm must be finite and non-zero");
     }
   }
+  if (!(depth_retry.light_below_inlier_fraction >= 0.0 &&
+        depth_retry.light_below_inlier_fraction <= 1.0)) {
+    throw InputError("registration: depth_retry: light_below_inlier_fraction must be in [0, 1]");
+  }
   edges.validate();
   quality.validate();
 }
@@ -669,31 +673,49 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
           "and view");
     }
   }
+  std::vector<imaging::EdgeMap> finest_maps;
   RegistrationResult result =
-      solveChecked(views, initial_poses, loaded, offset_priors, settings_.threads);
+      solveChecked(views, initial_poses, loaded, offset_priors, settings_.threads, &finest_maps);
   retryReflections(views, initial_poses, loaded, offset_priors, &result);
   if (!settings_.depth_retry.enabled) return result;
   // Fewer bones not ok first (lost counts twice), then more contour inliers.
   const auto rank = [&](const RegistrationResult& r) { return resultRank(r, settings_.quality); };
   auto best_rank = rank(result);
-  if (best_rank.first == 0) return result;
-  const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();
   SolveCounts counts(result);
+  if (best_rank.first == 0) {
+    // Every bone ok: the light retry, if a bone's contour lies short of the edges.
+    bool short_of_edges = false;
+    for (const BoneQuality& q : result.quality) {
+      short_of_edges = short_of_edges || q.contour_inlier_fraction <
+                                             settings_.depth_retry.light_below_inlier_fraction;
+    }
+    if (!short_of_edges || views.size() != 1 || finest_maps.empty()) return result;
+    const std::vector<std::vector<geometry::Pose>> light_starts = depthShifted(views, result.poses);
+    // Solved from the first solve's maps (a shift along the beam changes the view of the bones
+    // little), each thread on maps of its own.
+    const bool side_by_side = settings_.threads > 1 && light_starts.size() > 1;
+    std::vector<RegistrationResult> light(light_starts.size());
+    parallelFor(light_starts.size(), side_by_side ? settings_.threads : 1, [&](std::size_t k) {
+      std::vector<imaging::EdgeMap> own_maps;
+      for (const imaging::EdgeMap& map : finest_maps) {
+        own_maps.push_back(side_by_side ? map.unshared() : map);
+      }
+      light[k] = solveFrom(views, light_starts[k], loaded, offset_priors, &own_maps);
+    });
+    for (RegistrationResult& retry : light) {
+      counts.add(retry);
+      const auto retry_rank = rank(retry);
+      if (retry_rank < best_rank) {
+        best_rank = retry_rank;
+        result = std::move(retry);
+      }
+    }
+    counts.writeTo(&result);
+    return result;
+  }
   // From the result, whose in-plane position and rotations are mostly right, rather than from
   // the start (measured on the crude protocol: 91 against 89 % success).
-  const std::vector<geometry::Pose> base = result.poses;
-  std::vector<std::vector<geometry::Pose>> retry_starts;
-  for (double shift_mm : settings_.depth_retry.shifts_mm) {
-    std::vector<geometry::Pose> starts = base;
-    for (std::size_t b = 0; b < starts.size(); ++b) {
-      geometry::Pose in_camera = camera_from_fixed * starts[b];
-      const Eigen::Vector3d centre = in_camera * centroids_[b];
-      if (!(centre.norm() > 0.0)) continue;
-      in_camera.translation() += 1e-3 * shift_mm * centre.normalized();
-      starts[b] = camera_from_fixed.inverse() * in_camera;
-    }
-    retry_starts.push_back(std::move(starts));
-  }
+  const std::vector<std::vector<geometry::Pose>> retry_starts = depthShifted(views, result.poses);
   // One thread solves a shift only if those before it left a bone in doubt; more threads solve
   // them all at once and leave unused (and uncounted) the ones after the first that clears it.
   // A speculative solve that throws is left to the loop below, which throws only if it gets
@@ -722,6 +744,24 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
   }
   counts.writeTo(&result);
   return result;
+}
+
+std::vector<std::vector<geometry::Pose>> Registrar::depthShifted(
+    const std::vector<ViewImage>& views, const std::vector<geometry::Pose>& poses) const {
+  const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();
+  std::vector<std::vector<geometry::Pose>> shifted;
+  for (double shift_mm : settings_.depth_retry.shifts_mm) {
+    std::vector<geometry::Pose> starts = poses;
+    for (std::size_t b = 0; b < starts.size(); ++b) {
+      geometry::Pose in_camera = camera_from_fixed * starts[b];
+      const Eigen::Vector3d centre = in_camera * centroids_[b];
+      if (!(centre.norm() > 0.0)) continue;
+      in_camera.translation() += 1e-3 * shift_mm * centre.normalized();
+      starts[b] = camera_from_fixed.inverse() * in_camera;
+    }
+    shifted.push_back(std::move(starts));
+  }
+  return shifted;
 }
 
 void Registrar::retryReflections(const std::vector<ViewImage>& views,
@@ -785,10 +825,11 @@ void Registrar::retryReflections(const std::vector<ViewImage>& views,
 RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
                                            const std::vector<geometry::Pose>& initial_poses,
                                            const std::vector<bool>& loaded,
-                                           const EdgeOffsetPriors& offset_priors,
-                                           int threads) const {
+                                           const EdgeOffsetPriors& offset_priors, int threads,
+                                           std::vector<imaging::EdgeMap>* finest_maps_out) const {
   std::vector<imaging::EdgeMap> finest_maps;
   RegistrationResult result = solveFrom(views, initial_poses, loaded, offset_priors, &finest_maps);
+  if (finest_maps_out != nullptr) *finest_maps_out = finest_maps;
   // A second view sees the mirror from another side: only single views are ambiguous.
   if (!settings_.mirror_check.enabled || views.size() != 1) return result;
   const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();

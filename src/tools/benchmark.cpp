@@ -772,6 +772,11 @@ int main(int argc, char** argv) {
       "each of --depth-retry-shifts-mm and keep the best (true/false)")(
       "depth-retry-shifts-mm", po::value(&depth_retry_shifts),
       "the depth retry's shifts along the beam, comma-separated mm (default -15,15)")(
+      "depth-retry-light-below-inliers",
+      po::value(&settings.depth_retry.light_below_inlier_fraction)
+          ->default_value(settings.depth_retry.light_below_inlier_fraction),
+      "every bone ok but one below this contour inlier fraction: solve again from the same "
+      "shifts on the finest scale's maps only (0: never)")(
       "contour-spacing-px",
       po::value(&settings.contour_spacing_px)->default_value(settings.contour_spacing_px),
       "silhouette contour sample spacing, pixels at each scale")(

@@ -365,7 +365,7 @@ registration:
                  abandon_cost_ratio: 3.5, abandon_deviation_excess: 0.5,
                  start_deviation_excess: 2.5, neutral_internal_rotation_per_flexion: 0.1}
   reflection_retry: {enabled: false, below_inlier_fraction: 0.7, min_inlier_gain: 0.1}
-  depth_retry: {enabled: false, shifts_mm: [-10, 10, -25]}
+  depth_retry: {enabled: false, shifts_mm: [-10, 10, -25], light_below_inlier_fraction: 0.8}
   quality: {relative_inlier_drop: 0.2, relative_inlier_spread: 2.5, relative_inlier_window: 10,
             relative_inlier_min_frames: 5, relative_inlier_trend_frames: 6}
 )");
@@ -395,6 +395,7 @@ registration:
   EXPECT_DOUBLE_EQ(c.registration.reflection_retry.min_inlier_gain, 0.1);
   EXPECT_FALSE(c.registration.depth_retry.enabled);
   EXPECT_EQ(c.registration.depth_retry.shifts_mm, (std::vector<double>{-10.0, 10.0, -25.0}));
+  EXPECT_DOUBLE_EQ(c.registration.depth_retry.light_below_inlier_fraction, 0.8);
   EXPECT_FALSE(c.registration.edges.thresholds_skip_saturated_borders);
   EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_drop, 0.2);
   EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_spread, 2.5);
@@ -468,6 +469,8 @@ registration:
   expectRegistrationRejected("{reflection_retry: {min_inlier_gains: 0.1}}", "min_inlier_gains");
   expectRegistrationRejected("{depth_retry: {shifts_mm: [-15, 0]}}",
                              "depth_retry: shifts_mm must be finite and non-zero");
+  expectRegistrationRejected("{depth_retry: {light_below_inlier_fraction: 1.5}}",
+                             "light_below_inlier_fraction must be in [0, 1]");
   expectRegistrationRejected("{quality: {relative_inlier_drop: -0.1}}",
                              "relative_inlier_drop must be in [0, 1]");
   expectRegistrationRejected("{quality: {relative_inlier_spread: -1}}",
@@ -539,6 +542,8 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
                    d.reflection_retry.min_inlier_gain);
   EXPECT_EQ(c.registration.depth_retry.enabled, d.depth_retry.enabled);
   EXPECT_EQ(c.registration.depth_retry.shifts_mm, d.depth_retry.shifts_mm);
+  EXPECT_EQ(c.registration.depth_retry.light_below_inlier_fraction,
+            d.depth_retry.light_below_inlier_fraction);
   EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_drop, d.quality.relative_inlier_drop);
   EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_spread, d.quality.relative_inlier_spread);
   EXPECT_EQ(c.registration.quality.relative_inlier_window, d.quality.relative_inlier_window);
