@@ -34,6 +34,13 @@ namespace fluoro_tracker {
 namespace registration {
 namespace {
 
+// Copies of a frame's maps for a solve on another thread (EdgeMap::unshared).
+std::vector<imaging::EdgeMap> unsharedMaps(const std::vector<imaging::EdgeMap>& maps) {
+  std::vector<imaging::EdgeMap> copies;
+  for (const imaging::EdgeMap& map : maps) copies.push_back(map.unshared());
+  return copies;
+}
+
 // Extends `box` by the projections of the corners of the bone's bounding box at `pose`;
 // false if a corner lies closer than `min_depth_m` to the view's source plane (or behind it).
 bool extendByProjectedBounds(const geometry::XrayCamera& camera, const BoneModel& bone,
@@ -682,6 +689,15 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
   const auto rank = [&](const RegistrationResult& r) { return resultRank(r, settings_.quality); };
   auto best_rank = rank(result);
   SolveCounts counts(result);
+  // Counts a retry's solve and keeps it if it ranks better.
+  const auto consider = [&](RegistrationResult& retry) {
+    counts.add(retry);
+    const auto retry_rank = rank(retry);
+    if (retry_rank < best_rank) {
+      best_rank = retry_rank;
+      result = std::move(retry);
+    }
+  };
   if (best_rank.first == 0) {
     // Every bone ok: the light retry, if a bone's contour lies short of the edges.
     bool short_of_edges = false;
@@ -697,19 +713,11 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
     std::vector<RegistrationResult> light(light_starts.size());
     parallelFor(light_starts.size(), side_by_side ? settings_.threads : 1, [&](std::size_t k) {
       std::vector<imaging::EdgeMap> own_maps;
-      for (const imaging::EdgeMap& map : finest_maps) {
-        own_maps.push_back(side_by_side ? map.unshared() : map);
-      }
-      light[k] = solveFrom(views, light_starts[k], loaded, offset_priors, &own_maps);
+      if (side_by_side) own_maps = unsharedMaps(finest_maps);
+      light[k] = solveFrom(views, light_starts[k], loaded, offset_priors,
+                           side_by_side ? &own_maps : &finest_maps);
     });
-    for (RegistrationResult& retry : light) {
-      counts.add(retry);
-      const auto retry_rank = rank(retry);
-      if (retry_rank < best_rank) {
-        best_rank = retry_rank;
-        result = std::move(retry);
-      }
-    }
+    for (RegistrationResult& retry : light) consider(retry);
     counts.writeTo(&result);
     return result;
   }
@@ -733,13 +741,7 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
     if (!retries[k]) {
       retries[k] = solveChecked(views, retry_starts[k], loaded, offset_priors, settings_.threads);
     }
-    RegistrationResult& retry = *retries[k];
-    counts.add(retry);
-    const auto retry_rank = rank(retry);
-    if (retry_rank < best_rank) {
-      best_rank = retry_rank;
-      result = std::move(retry);
-    }
+    consider(*retries[k]);
     if (best_rank.first == 0) break;
   }
   counts.writeTo(&result);
@@ -884,9 +886,7 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
     std::vector<Solution> solved(candidate_starts.size());
     parallelFor(candidate_starts.size(), side_by_side ? threads : 1, [&](std::size_t k) {
       std::vector<imaging::EdgeMap> own_maps;
-      if (side_by_side) {
-        for (const imaging::EdgeMap& map : finest_maps) own_maps.push_back(map.unshared());
-      }
+      if (side_by_side) own_maps = unsharedMaps(finest_maps);
       solved[k] = solveUnfinished(views, candidate_starts[k], loaded, offset_priors,
                                   side_by_side ? &own_maps : &finest_maps, &gate);
     });

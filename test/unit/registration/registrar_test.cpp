@@ -68,6 +68,18 @@ registration::JointModel kneeJoint() {
   return knee;
 }
 
+// The same registration to the bit: poses, final cost and cost evaluations (e.g. on one thread
+// and on two).
+void expectSameRegistration(const registration::RegistrationResult& a,
+                            const registration::RegistrationResult& b) {
+  ASSERT_EQ(a.poses.size(), b.poses.size());
+  for (std::size_t k = 0; k < a.poses.size(); ++k) {
+    EXPECT_TRUE(a.poses[k].matrix() == b.poses[k].matrix()) << "bone " << k;
+  }
+  EXPECT_EQ(a.final_cost, b.final_cost);
+  EXPECT_EQ(a.cost_evaluations, b.cost_evaluations);
+}
+
 // The scene with the tibial tray started on its mirror pose (through the plane along the beam),
 // which the single view cannot tell from the truth; the femur starts at its truth.
 struct MirroredTrayStart : Scene {
@@ -586,12 +598,6 @@ TEST(Registrar, MirrorCheckContinuesACandidateStillInTheRunning) {
     settings.mirror_check.continued_outer_iterations = continued;
     return registration::Registrar(scene.bones, settings, {knee}).solve(scene.views, scene.start);
   };
-  const auto expect_same = [&](const registration::RegistrationResult& a,
-                               const registration::RegistrationResult& b) {
-    for (int k = 0; k < 2; ++k) EXPECT_TRUE(a.poses[k].isApprox(b.poses[k], 0.0)) << "bone " << k;
-    EXPECT_EQ(a.final_cost, b.final_cost);
-    EXPECT_EQ(a.cost_evaluations, b.cost_evaluations);
-  };
   // One outer iteration leaves the kept candidate short of its minimum; continued by two, it
   // is solved exactly as with three.
   const auto cut_short = solve(1, 0);
@@ -603,7 +609,7 @@ TEST(Registrar, MirrorCheckContinuesACandidateStillInTheRunning) {
         << scene.bones[b].name;
   }
   EXPECT_LT(continued.final_cost, 0.9 * cut_short.final_cost);
-  expect_same(continued, three);
+  expectSameRegistration(continued, three);
 
   // A candidate that cannot be kept (asked to end all but exactly neutral) is not continued.
   settings.mirror_check.enabled = false;
@@ -618,7 +624,7 @@ TEST(Registrar, MirrorCheckContinuesACandidateStillInTheRunning) {
   settings.mirror_check.abandon_deviation_excess = 1e9;
   settings.mirror_check.start_deviation_excess = 1e9;
   const auto hopeless = solve(1, 0);
-  expect_same(solve(1, 2), hopeless);
+  expectSameRegistration(solve(1, 2), hopeless);
   EXPECT_GT(hopeless.cost_evaluations, unchecked.cost_evaluations);  // candidates were solved
 
   settings.mirror_check.continued_outer_iterations = -1;
@@ -664,9 +670,7 @@ TEST(Registrar, MirrorCheckReversesTheTiltAloneOfATurnedTray) {
   ASSERT_EQ(settings.threads, 2);
   settings.threads = 1;
   const auto in_turn = registration::Registrar(bones, settings, {knee}).solve(views, start);
-  for (int b = 0; b < 2; ++b) EXPECT_TRUE(in_turn.poses[b].isApprox(with.poses[b], 0.0));
-  EXPECT_EQ(in_turn.final_cost, with.final_cost);
-  EXPECT_EQ(in_turn.cost_evaluations, with.cost_evaluations);
+  expectSameRegistration(in_turn, with);
 }
 
 // Both bones start 20-26 mm too near the source and 3.4 deg off, from where the solve settles
@@ -715,11 +719,7 @@ TEST(Registrar, DepthRetryRecoversAStartFarAlongTheBeam) {
   settings.threads = 1;
   const auto in_turn =
       registration::Registrar(scene.bones, settings, {kneeJoint()}).solve(views, start);
-  EXPECT_EQ(in_turn.final_cost, retried.final_cost);
-  EXPECT_EQ(in_turn.cost_evaluations, retried.cost_evaluations);
-  for (int b = 0; b < 2; ++b) {
-    EXPECT_TRUE(in_turn.poses[b].matrix() == retried.poses[b].matrix()) << b;
-  }
+  expectSameRegistration(in_turn, retried);
 }
 
 // The light depth retry (DepthRetrySettings::light_below_inlier_fraction): on poor frames (768 x
@@ -760,9 +760,7 @@ TEST(Registrar, LightDepthRetryKeepsTheBetterRankedOfAResultInDoubt) {
               (std::vector<std::string>{"ok", "ok"}));
     replaced += with.poses[1].isApprox(without.poses[1], 0.0) ? 0 : 1;
     const auto in_turn = solve(1.0, 1);
-    EXPECT_EQ(in_turn.final_cost, with.final_cost);
-    EXPECT_EQ(in_turn.cost_evaluations, with.cost_evaluations);
-    for (int b = 0; b < 2; ++b) EXPECT_TRUE(in_turn.poses[b].isApprox(with.poses[b], 0.0));
+    expectSameRegistration(in_turn, with);
   }
   EXPECT_GT(replaced, 0) << "no retry was kept: the test shows only that they run";
   settings.depth_retry.light_below_inlier_fraction = -0.1;
@@ -1198,11 +1196,7 @@ TEST(Registrar, ReflectionRetryFreesTheRealKneelTrayFromItsTiltReflection) {
       one_thread.threads = 1;
       const auto in_turn =
           registration::Registrar(kneel.registrar->bones(), one_thread).solve(views, starts);
-      EXPECT_EQ(in_turn.final_cost, freed.final_cost);
-      EXPECT_EQ(in_turn.cost_evaluations, freed.cost_evaluations);
-      for (int b = 0; b < 2; ++b) {
-        EXPECT_TRUE(in_turn.poses[b].matrix() == freed.poses[b].matrix()) << b;
-      }
+      expectSameRegistration(in_turn, freed);
     }
   }
 }
