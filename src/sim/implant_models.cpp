@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/sim/mesh_builder.h"
 
 namespace fluoro_tracker {
@@ -105,24 +106,7 @@ Mesh makeFemoralComponent(const KneeImplantDimensions& d) {
     const double smooth = blend * blend * (3.0 - 2.0 * blend);
     return d.distal_radius_mm + (d.posterior_radius_mm - d.distal_radius_mm) * smooth;
   };
-
-  std::vector<SweepStation> stations;
-  std::vector<double> station_phi;
-  for (const PathPoint& p : path) {
-    const double phi = std::max(p.phi, 0.0);
-    const Eigen::Vector3d direction(std::cos(phi), -std::sin(phi), 0.0);
-    stations.push_back({Eigen::Vector3d(0.0, p.height, 0.0), direction, Eigen::Vector3d::UnitZ()});
-    station_phi.push_back(p.phi);
-  }
-
-  std::vector<double> columns;
-  const int n_columns = 29;
-  for (int c = 0; c < n_columns; ++c)
-    columns.push_back(-half_width + d.width_mm * c / (n_columns - 1));
-
-  const auto inner = [&](int i, double) { return boxCutDistance(std::max(station_phi[i], 0.0)); };
-  const auto outer = [&](int i, double z) {
-    const double phi = std::max(station_phi[i], 0.0);
+  const auto outerRadius = [&](double phi, double z) {
     const double phi_deg = phi / kDeg;
     double r = articularRadius(phi);
     // Lateral (+z) condyle slightly smaller on the distal and posterior surfaces.
@@ -143,7 +127,60 @@ Mesh makeFemoralComponent(const KneeImplantDimensions& d) {
     // Never thinner than 1.5 mm.
     return std::max(r, boxCutDistance(phi) + 1.5);
   };
-  return sweepProfile(stations, columns, inner, outer);
+  // The solid swept along part of the path over these columns.
+  const auto sweep = [&](const std::vector<PathPoint>& part, const std::vector<double>& columns) {
+    std::vector<SweepStation> stations;
+    std::vector<double> station_phi;
+    for (const PathPoint& p : part) {
+      const double phi = std::max(p.phi, 0.0);
+      const Eigen::Vector3d direction(std::cos(phi), -std::sin(phi), 0.0);
+      stations.push_back(
+          {Eigen::Vector3d(0.0, p.height, 0.0), direction, Eigen::Vector3d::UnitZ()});
+      station_phi.push_back(phi);
+    }
+    return sweepProfile(
+        stations, columns, [&](int i, double) { return boxCutDistance(station_phi[i]); },
+        [&](int i, double z) { return outerRadius(station_phi[i], z); });
+  };
+
+  std::vector<double> columns;
+  const int n_columns = 29;
+  for (int c = 0; c < n_columns; ++c)
+    columns.push_back(-half_width + d.width_mm * c / (n_columns - 1));
+  if (!d.posteriorStabilised()) return sweep(path, columns);
+
+  // Posterior-stabilised: the full width up to the box's opening, then each condyle alone. The
+  // three solids share the opening's station over the condyles' columns and the box's walls
+  // fall on columns of all three, so that fused along those faces they are one closed surface,
+  // as a vendor's model would be.
+  const double box_half = 0.5 * d.box_width_mm;
+  for (double wall : {-box_half, box_half}) {
+    const bool present = std::any_of(columns.begin(), columns.end(),
+                                     [&](double c) { return std::abs(c - wall) < 1e-9; });
+    if (!present) columns.push_back(wall);
+  }
+  std::sort(columns.begin(), columns.end());
+  const double phi_open = kBoxStartDeg * kDeg;
+  std::vector<PathPoint> anterior;
+  std::vector<PathPoint> condyles;
+  for (const PathPoint& p : path) {
+    if (p.phi < phi_open - 1e-9) anterior.push_back(p);
+  }
+  anterior.push_back({phi_open, 0.0});
+  condyles.push_back({phi_open, 0.0});
+  for (const PathPoint& p : path) {
+    if (p.phi > phi_open + 1e-9) condyles.push_back(p);
+  }
+  std::vector<double> medial;
+  std::vector<double> lateral;
+  for (double c : columns) {
+    if (c <= -box_half + 1e-9) medial.push_back(c);
+    if (c >= box_half - 1e-9) lateral.push_back(c);
+  }
+  Mesh component = sweep(anterior, columns);
+  component.append(sweep(condyles, medial));
+  component.append(sweep(condyles, lateral));
+  return fuseTouchingFaces(component);
 }
 
 }  // namespace
@@ -157,7 +194,41 @@ bool isOverInsert(const KneeImplantDimensions& d, double x, double z) {
   return std::hypot(x, z) * 1e3 <= trayRadius(d, theta, kInsertShrink);
 }
 
+void KneeImplantDimensions::validate() const {
+  if (!(box_width_mm >= 0.0)) throw InputError("implants: box_width_mm must be >= 0");
+  if (!posteriorStabilised()) return;
+  if (!(box_width_mm < 2.0 * condyle_track_mm)) {
+    throw InputError(
+        "implants: box_width_mm must leave the condyles' tracks (2 x condyle_track_mm)");
+  }
+  if (!(post_width_mm > 0.0 && post_width_mm < box_width_mm)) {
+    throw InputError("implants: post_width_mm must be > 0 and less than box_width_mm");
+  }
+  if (!(post_length_mm > 0.0) ||
+      !(std::abs(post_offset_mm) + 0.5 * post_length_mm < 0.5 * kInsertShrink * tray_ap_mm)) {
+    throw InputError(
+        "implants: post_length_mm must be > 0, and the post (post_offset_mm) on the insert");
+  }
+  if (!(post_height_mm > 0.0)) throw InputError("implants: post_height_mm must be > 0");
+  // The post stands clear of the dished surface under its footprint.
+  for (int i = 0; i <= 20; ++i) {
+    for (int j = 0; j <= 20; ++j) {
+      const double u = i / 10.0 - 1.0;
+      const double v = j / 10.0 - 1.0;
+      if (u * u + v * v > 1.0) continue;
+      const double x = post_offset_mm + 0.5 * post_length_mm * u;
+      const double z = 0.5 * post_width_mm * v;
+      if (dishOffsetMm(*this, x, z) > -0.1) {
+        throw InputError(
+            "implants: the post's footprint (post_length_mm x post_width_mm) reaches the "
+            "insert's rim height; it must stand over the dished region (dish_depth_mm)");
+      }
+    }
+  }
+}
+
 KneeImplantSet makeKneeImplants(const KneeImplantDimensions& d) {
+  d.validate();
   KneeImplantSet set;
   set.femoral_component = makeFemoralComponent(d).scaled(1e-3);
 
@@ -172,10 +243,18 @@ KneeImplantSet makeKneeImplants(const KneeImplantDimensions& d) {
 
   const auto insert_outline = radialOutline(
       [&](double theta) { return trayRadius(d, theta, kInsertShrink); }, outline_points);
-  set.tibial_insert =
-      extrudeOutline(insert_outline, 0.0, d.insert_thickness_mm, 14, [&](double x, double z) {
-        return dishOffsetMm(d, x, z);
-      }).scaled(1e-3);
+  Mesh insert = extrudeOutline(insert_outline, 0.0, d.insert_thickness_mm, 14,
+                               [&](double x, double z) { return dishOffsetMm(d, x, z); });
+  if (d.posteriorStabilised()) {
+    // A separate closed body standing at the rim's height, clear of the dished surface below it
+    // (validate()), so that the insert's signed distance, which takes its sign from the nearest
+    // surface's orientation, stays exact: touching or overlapping bodies would confuse it.
+    Mesh post = cylinderY(0.5 * d.post_length_mm, 0.5 * d.post_width_mm, d.insert_thickness_mm,
+                          d.insert_thickness_mm + d.post_height_mm);
+    insert.append(post.transformed(
+        geometry::makePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(d.post_offset_mm, 0, 0))));
+  }
+  set.tibial_insert = insert.scaled(1e-3);
   return set;
 }
 

@@ -1,7 +1,10 @@
 #include "fluoro_tracker/sim/mesh_builder.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <deque>
+#include <map>
 #include <unordered_map>
 
 namespace fluoro_tracker {
@@ -167,6 +170,56 @@ Mesh uvSphere(double radius, int rings, int segments) {
   Mesh mesh(std::move(v), std::move(t));
   orientOutward(&mesh);
   return mesh;
+}
+
+Mesh fuseTouchingFaces(const Mesh& mesh) {
+  std::map<std::array<double, 3>, int> welded;
+  std::vector<int> to_welded(mesh.vertexCount());
+  std::vector<Eigen::Vector3d> positions;
+  for (std::size_t i = 0; i < mesh.vertexCount(); ++i) {
+    const Eigen::Vector3d& p = mesh.vertices()[i];
+    const auto [it, added] = welded.emplace(std::array<double, 3>{p.x(), p.y(), p.z()},
+                                            static_cast<int>(positions.size()));
+    if (added) positions.push_back(p);
+    to_welded[i] = it->second;
+  }
+  std::vector<Tri> triangles;
+  for (const Tri& t : mesh.triangles())
+    triangles.emplace_back(to_welded[t[0]], to_welded[t[1]], to_welded[t[2]]);
+  // Triangles by their vertex set: a shared face appears twice, wound both ways.
+  std::map<std::array<int, 3>, std::vector<int>> by_corners;
+  for (int i = 0; i < static_cast<int>(triangles.size()); ++i) {
+    std::array<int, 3> corners{triangles[i][0], triangles[i][1], triangles[i][2]};
+    std::sort(corners.begin(), corners.end());
+    by_corners[corners].push_back(i);
+  }
+  std::vector<bool> shared(triangles.size(), false);
+  for (const auto& [corners, members] : by_corners) {
+    if (members.size() != 2) continue;
+    const Tri& a = triangles[members[0]];
+    const Tri& b = triangles[members[1]];
+    // Opposite windings: b traverses a's first edge backwards.
+    bool opposite = false;
+    for (int k = 0; k < 3; ++k) opposite = opposite || (b[k] == a[1] && b[(k + 1) % 3] == a[0]);
+    if (opposite) shared[members[0]] = shared[members[1]] = true;
+  }
+  std::vector<int> compact(positions.size(), -1);
+  std::vector<Eigen::Vector3d> vertices;
+  std::vector<Tri> kept;
+  for (std::size_t i = 0; i < triangles.size(); ++i) {
+    if (shared[i]) continue;
+    Tri t = triangles[i];
+    for (int k = 0; k < 3; ++k) {
+      int& c = compact[t[k]];
+      if (c < 0) {
+        c = static_cast<int>(vertices.size());
+        vertices.push_back(positions[t[k]]);
+      }
+      t[k] = c;
+    }
+    kept.push_back(t);
+  }
+  return Mesh(std::move(vertices), std::move(kept));
 }
 
 Mesh sweepProfile(const std::vector<SweepStation>& stations, const std::vector<double>& columns,

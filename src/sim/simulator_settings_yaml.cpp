@@ -112,7 +112,8 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   const io::YamlSection i = r.child("implants");
   i.allowOnly({"width_mm", "distal_radius_mm", "posterior_radius_mm", "lateral_condyle_offset_mm",
                "condyle_coronal_radius_mm", "condyle_track_mm", "tray_ap_mm", "tray_ml_mm",
-               "insert_thickness_mm", "dish_depth_mm", "eminence_height_mm"});
+               "insert_thickness_mm", "dish_depth_mm", "eminence_height_mm", "box_width_mm",
+               "post_width_mm", "post_length_mm", "post_height_mm", "post_offset_mm"});
   i.read("width_mm", &s.implants.width_mm);
   i.read("distal_radius_mm", &s.implants.distal_radius_mm);
   i.read("posterior_radius_mm", &s.implants.posterior_radius_mm);
@@ -124,6 +125,11 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   i.read("insert_thickness_mm", &s.implants.insert_thickness_mm);
   i.read("dish_depth_mm", &s.implants.dish_depth_mm);
   i.read("eminence_height_mm", &s.implants.eminence_height_mm);
+  i.read("box_width_mm", &s.implants.box_width_mm);
+  i.read("post_width_mm", &s.implants.post_width_mm);
+  i.read("post_length_mm", &s.implants.post_length_mm);
+  i.read("post_height_mm", &s.implants.post_height_mm);
+  i.read("post_offset_mm", &s.implants.post_offset_mm);
 
   // Component models from files: paths relative to this file's folder, each placed by its
   // component_from_mesh pose (see ImplantMeshFiles).

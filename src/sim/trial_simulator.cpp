@@ -92,6 +92,7 @@ void TrialSimulatorSettings::validate() const {
       !(implants.condyle_track_mm < 0.5 * implants.width_mm)) {
     throw InputError("simulator: implants.condyle_track_mm must lie between 0 and half width_mm");
   }
+  implants.validate();
   for (const ImplantMeshFile* file : {&implant_meshes.femoral_component,
                                       &implant_meshes.tibial_tray, &implant_meshes.tibial_insert}) {
     if (!geometry::isValidPose(file->component_from_mesh)) {

@@ -561,7 +561,8 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
             : "start +-2 mm in-plane, +-3 mm out-of-plane, +-3 deg";
     const std::string implants =
         std::string(base.side == kinematics::Side::kLeft ? " (left knee)" : "") +
-        (base.implant_meshes.any() ? " (implant models from files)" : "");
+        (base.implant_meshes.any() ? " (implant models from files)" : "") +
+        (base.implants.posteriorStabilised() ? " (posterior-stabilised)" : "");
     tallies[c].print("simulated " + std::string(views == 1 ? "single-plane" : "bi-plane") +
                      " total knee" + implants + ", " + std::to_string(trials) + " trial(s) x " +
                      std::to_string(frames) + " frame(s), " + trial_set + " images, " +

@@ -44,7 +44,35 @@ struct KneeImplantDimensions {
   double insert_thickness_mm = 10.0;
   double dish_depth_mm = 3.0;
   double eminence_height_mm = 1.5;  // insert's central eminence above the tracks' bottoms
+  // Posterior-stabilised design (the dissertation's chapter 3 implant type) when box_width_mm >
+  // 0: the femoral component's condyles are separate from kBoxStartDeg around the condylar arc
+  // on, leaving an open intercondylar box this wide, and the insert carries a post (an
+  // elliptic cylinder standing at its rim height) that rises into the box. The box's side walls
+  // are the condyles' inner faces: in a 16 mm box the default post has 1 mm of medial-lateral
+  // play each side (room for the simulated motion's varus-valgus and axial turns), so contact
+  // holds the joint's medial-lateral position where the dished tracks of the
+  // cruciate-retaining design (0, the default: no box, no post) barely do. No cam, so past
+  // about 100 deg of flexion the post leaves the box behind the posterior condyles; rollback is
+  // the motion's own.
+  double box_width_mm = 0.0;
+  double post_width_mm = 14.0;   // medial-lateral
+  double post_length_mm = 10.0;  // anterior-posterior
+  double post_height_mm = 12.0;  // above the insert's rim
+  // The post's centre, anterior (+) of the tray's centre. The simulated motion turns the femur
+  // about its own flexion axis's midpoint, which rolls back 6 mm (KneeMotionSettings): a post
+  // centred there keeps its play through 12 deg of axial rotation; one at the tray's centre
+  // would meet the box's walls in deep flexion.
+  double post_offset_mm = -6.0;
+
+  bool posteriorStabilised() const { return box_width_mm > 0.0; }
+  // Throws InputError naming the field (e.g. a post wider than its box).
+  void validate() const;
 };
+
+// Where the posterior-stabilised femoral component's box opens: this far around the condylar
+// arc from anterior (0) through distal (90 deg); the anterior flange and trochlea before it span
+// the full width.
+constexpr double kBoxStartDeg = 50.0;
 
 KneeImplantSet makeKneeImplants(const KneeImplantDimensions& dimensions = {});
 

@@ -32,6 +32,12 @@ geometry::Mesh cylinderY(double radius_x, double radius_z, double y_bottom, doub
 geometry::Mesh box(const Eigen::Vector3d& half_extents);
 geometry::Mesh uvSphere(double radius, int rings = 48, int segments = 96);
 
+// Closed parts built to touch along shared faces (e.g. solids swept over adjoining stations and
+// columns) made one closed surface: vertices at identical positions are welded and each pair of
+// coincident, oppositely wound triangles (a face two parts share) is removed, with the vertices
+// left unused.
+geometry::Mesh fuseTouchingFaces(const geometry::Mesh& mesh);
+
 // One station of a swept solid: a point on the sweep path with the in-plane direction along
 // which the profile's offsets are measured and the direction along which its columns lie.
 struct SweepStation {

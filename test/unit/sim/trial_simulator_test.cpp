@@ -129,6 +129,11 @@ TEST(TrialSimulator, ShippedConfigLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(s.detector.window_max_attenuation, d.detector.window_max_attenuation);
   EXPECT_DOUBLE_EQ(s.detector.collimator_radius_fraction, d.detector.collimator_radius_fraction);
   EXPECT_DOUBLE_EQ(s.implants.width_mm, d.implants.width_mm);
+  EXPECT_DOUBLE_EQ(s.implants.box_width_mm, d.implants.box_width_mm);
+  EXPECT_DOUBLE_EQ(s.implants.post_width_mm, d.implants.post_width_mm);
+  EXPECT_DOUBLE_EQ(s.implants.post_length_mm, d.implants.post_length_mm);
+  EXPECT_DOUBLE_EQ(s.implants.post_height_mm, d.implants.post_height_mm);
+  EXPECT_DOUBLE_EQ(s.implants.post_offset_mm, d.implants.post_offset_mm);
   EXPECT_DOUBLE_EQ(s.occluder_rod_radius_mm, d.occluder_rod_radius_mm);
   EXPECT_EQ(s.occluder_material, d.occluder_material);
   EXPECT_DOUBLE_EQ(s.marker_grid_spacing_mm, d.marker_grid_spacing_mm);
@@ -309,6 +314,19 @@ TEST(TrialSimulator, MarkerGridAndPlatformAddLabFixedClutter) {
   EXPECT_NO_THROW(sim::TrialSimulator{short_throw});
   short_throw.marker_grid_spacing_mm = 30.0;
   EXPECT_THROW_WITH(sim::TrialSimulator{short_throw}, "marker_plane_from_source_mm");
+}
+
+// The posterior-stabilised variant (config/robustness/posterior_stabilised.yaml) sets a box;
+// a post that does not fit it is named.
+TEST(TrialSimulator, PosteriorStabilisedSettingsAreReadAndChecked) {
+  const auto s = sim::loadSimulatorSettings(std::string(FLUORO_SOURCE_DIR) +
+                                            "/config/robustness/posterior_stabilised.yaml");
+  EXPECT_TRUE(s.implants.posteriorStabilised());
+  EXPECT_DOUBLE_EQ(s.implants.box_width_mm, 16.0);
+  TempDir dir;
+  test_support::writeText(dir.file("post.yaml"),
+                          "implants: {box_width_mm: 16, post_width_mm: 18, post_height_mm: 9}\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("post.yaml")), "post_width_mm");
 }
 
 // Another implant design: config/robustness/kneel_implants.yaml reads the real vendor models of
