@@ -2,8 +2,11 @@
 #include "fluoro_tracker/constraints/articular_contact.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <numeric>
 
 #include <ceres/jet.h>
 #include <fcl/narrowphase/collision.h>
@@ -102,6 +105,9 @@ std::string contactMeasureName(ContactMeasure measure) {
 
 void ContactSettings::validate() const {
   if (!(dead_band_mm >= 0.0)) throw InputError("contact: dead_band_mm must be >= 0");
+  if (!(max_sample_spacing_mm >= 0.0) || !std::isfinite(max_sample_spacing_mm)) {
+    throw InputError("contact: max_sample_spacing_mm must be >= 0 (0: vertices only)");
+  }
   if (!(exponent > 0.0)) throw InputError("contact: exponent must be > 0");
   if (!(weight >= 0.0)) throw InputError("contact: weight must be >= 0");
   if (!(loaded_weight >= 0.0)) throw InputError("contact: loaded_weight must be >= 0");
@@ -130,26 +136,90 @@ ArticularContact::ArticularContact(const geometry::Mesh& parent_surface,
     throw InputError("contact: the child's articular surface must be closed (" +
                      child_surface.topology().describe() + ")");
   }
-  // Sample the parent's surface: the vertices of the triangles in the region, renumbered.
+  // Sample the parent's surface: the vertices of the triangles in the region, renumbered, and
+  // in a triangle longer than the spacing the points of an even n x n split of it. Points on an
+  // edge are shared with the neighbour that splits that edge alike (keyed by the edge and the
+  // fraction along it), so a surface split evenly stays one connected sample mesh.
   const auto normals = parent_surface.faceNormals();
   const auto& v = parent_surface.vertices();
+  const double spacing_m = settings_.max_sample_spacing_mm / kMillimetresPerMetre;
   std::vector<int> sample_of_vertex(parent_surface.vertexCount(), -1);
+  std::map<std::array<int, 4>, int> sample_on_edge;  // {lower vertex, upper, step, steps}
+  const auto vertexSample = [&](int vertex) {
+    int& s = sample_of_vertex[vertex];
+    if (s < 0) {
+      s = static_cast<int>(samples_.size());
+      samples_.push_back(v[vertex]);
+    }
+    return s;
+  };
   for (std::size_t t = 0; t < parent_surface.triangleCount(); ++t) {
     const auto& tri = parent_surface.triangles()[t];
     const Eigen::Vector3d centroid = (v[tri[0]] + v[tri[1]] + v[tri[2]]) / 3.0;
     if (!inRegion(settings_.region, centroid, normals[t])) continue;
-    Triangle triangle;
-    for (int k = 0; k < 3; ++k) {
-      int& s = sample_of_vertex[tri[k]];
-      if (s < 0) {
-        s = static_cast<int>(samples_.size());
-        samples_.push_back(v[tri[k]]);
+    const double longest = std::max({(v[tri[1]] - v[tri[0]]).norm(), (v[tri[2]] - v[tri[1]]).norm(),
+                                     (v[tri[0]] - v[tri[2]]).norm()});
+    const int n =
+        spacing_m > 0.0 ? std::max(1, static_cast<int>(std::ceil(longest / spacing_m))) : 1;
+    // The sample at barycentric grid point (i, j) of n: v0 + i/n (v1 - v0) + j/n (v2 - v0).
+    const auto gridSample = [&](int i, int j) {
+      const int k = n - i - j;
+      if (i == 0 && j == 0) return vertexSample(tri[0]);
+      if (i == n) return vertexSample(tri[1]);
+      if (j == n) return vertexSample(tri[2]);
+      // On an edge: the two corners and how far along from the lower-numbered one.
+      int a = -1;
+      int b = -1;
+      int step = 0;
+      if (j == 0) {
+        a = tri[0];
+        b = tri[1];
+        step = i;
+      } else if (k == 0) {
+        a = tri[1];
+        b = tri[2];
+        step = j;
+      } else if (i == 0) {
+        a = tri[2];
+        b = tri[0];
+        step = k;
       }
-      triangle.sample[k] = s;
+      const Eigen::Vector3d point = v[tri[0]] +
+                                    (static_cast<double>(i) / n) * (v[tri[1]] - v[tri[0]]) +
+                                    (static_cast<double>(j) / n) * (v[tri[2]] - v[tri[0]]);
+      if (a < 0) {
+        samples_.push_back(point);
+        return static_cast<int>(samples_.size()) - 1;
+      }
+      if (a > b) {
+        std::swap(a, b);
+        step = n - step;
+      }
+      // The fraction in lowest terms, so that neighbours split 2 and 4 times share the middle.
+      const int common = std::gcd(step, n);
+      const auto [it, added] = sample_on_edge.emplace(
+          std::array<int, 4>{a, b, step / common, n / common}, static_cast<int>(samples_.size()));
+      if (added) samples_.push_back(point);
+      return it->second;
+    };
+    const double area_mm2 = 0.5 * (v[tri[1]] - v[tri[0]]).cross(v[tri[2]] - v[tri[0]]).norm() *
+                            kMillimetresPerMetre * kMillimetresPerMetre / (n * n);
+    // The corners first, in the parent's order, as without a split.
+    for (int k = 0; k < 3; ++k) vertexSample(tri[k]);
+    std::vector<int> row(n + 1), next_row(n + 1);
+    for (int j = 0; j <= n; ++j) row[j] = gridSample(0, j);
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j + i + 1 <= n; ++j) next_row[j] = gridSample(i + 1, j);
+      // Upward triangles (i, j), (i+1, j), (i, j+1) and downward ones (i+1, j), (i+1, j+1),
+      // (i, j+1): the parent's winding kept.
+      for (int j = 0; j + i + 1 <= n; ++j) {
+        triangles_.push_back({{row[j], next_row[j], row[j + 1]}, area_mm2});
+        if (j + i + 2 <= n) {
+          triangles_.push_back({{next_row[j], next_row[j + 1], row[j + 1]}, area_mm2});
+        }
+      }
+      std::swap(row, next_row);
     }
-    triangle.area_mm2 = 0.5 * (v[tri[1]] - v[tri[0]]).cross(v[tri[2]] - v[tri[0]]).norm() *
-                        kMillimetresPerMetre * kMillimetresPerMetre;
-    triangles_.push_back(triangle);
   }
   if (triangles_.empty()) throw InputError("contact: the region selects no triangle of the parent");
   grid_ = std::make_shared<geometry::SignedDistanceGrid>(child_surface, settings_.grid);

@@ -40,7 +40,8 @@ constraints::ContactSettings readContactSettings(const YAML::Node& joint,
   }
   const YamlSection section(node, context + ".contact");
   section.allowOnly({"enabled", "measure", "dead_band_mm", "exponent", "weight", "loaded_weight",
-                     "region", "grid_spacing_mm", "grid_margin_mm", "grid_exact_band_mm"});
+                     "region", "max_sample_spacing_mm", "grid_spacing_mm", "grid_margin_mm",
+                     "grid_exact_band_mm"});
   section.read("enabled", &c.enabled);
   std::string measure = constraints::contactMeasureName(c.measure);
   section.read("measure", &measure);
@@ -48,6 +49,7 @@ constraints::ContactSettings readContactSettings(const YAML::Node& joint,
   section.read("exponent", &c.exponent);
   section.read("weight", &c.weight);
   section.read("loaded_weight", &c.loaded_weight);
+  section.read("max_sample_spacing_mm", &c.max_sample_spacing_mm);
   double spacing_mm = c.grid.spacing_m * 1e3;
   double margin_mm = c.grid.margin_m * 1e3;
   double band_mm = c.grid.exact_band_m * 1e3;
@@ -532,6 +534,7 @@ void saveTrialConfig(const std::string& path, const TrialConfig& config) {
       out << YAML::Key << "exponent" << YAML::Value << c.exponent;
       out << YAML::Key << "weight" << YAML::Value << c.weight;
       out << YAML::Key << "loaded_weight" << YAML::Value << c.loaded_weight;
+      out << YAML::Key << "max_sample_spacing_mm" << YAML::Value << c.max_sample_spacing_mm;
       out << YAML::Key << "grid_spacing_mm" << YAML::Value << c.grid.spacing_m * 1e3;
       out << YAML::Key << "grid_margin_mm" << YAML::Value << c.grid.margin_m * 1e3;
       out << YAML::Key << "grid_exact_band_mm" << YAML::Value << c.grid.exact_band_m * 1e3;

@@ -936,7 +936,11 @@ int main(int argc, char** argv) {
       "write each failed simulated frame (first view) with the result's contours drawn, as "
       "failed_c<condition>_t<trial>_f<frame>.png, to this folder")(
       "contact-dead-band-mm", po::value(&contact.dead_band_mm)->default_value(contact.dead_band_mm),
-      "penetration allowed without cost");
+      "penetration allowed without cost")(
+      "contact-sample-spacing-mm",
+      po::value(&contact.max_sample_spacing_mm)->default_value(contact.max_sample_spacing_mm),
+      "largest spacing of the parent surface's contact samples (larger triangles are split; 0: "
+      "vertices only)");
   po::variables_map vm;
   if (const auto exit_code = tools::parseCommandLine("benchmark", options, argc, argv, &vm)) {
     return *exit_code;

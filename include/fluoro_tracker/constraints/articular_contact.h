@@ -57,6 +57,15 @@ struct ContactSettings {
   // weight joins for that frame.
   double loaded_weight = 20.0;
   ContactRegion region;
+  // The parent's surface is sampled at its vertices and at points this far apart at most on its
+  // larger triangles (each split evenly into smaller ones; 0: vertices only). Distances are
+  // linear across each (sub-)triangle, so a triangle larger than a feature of the child's
+  // surface lets that feature pass through it unseen: a vendor model's flat faces (a
+  // posterior-stabilised box wall, a cam) are often a few large triangles, where a post could
+  // enter a wall's middle with every vertex outside it. 3 mm leaves a typical articular
+  // tessellation (1-3 mm: the generated components' condyles, the Kneel study's femoral
+  // component at 2.4-3.0 mm) as it is.
+  double max_sample_spacing_mm = 3.0;
   geometry::SignedDistanceGridSettings grid;
 
   void validate() const;  // throws InputError naming the field
@@ -85,12 +94,12 @@ struct ContactFigures {
 };
 
 // Articular contact between a parent's and a child's surface (e.g. femoral component and
-// tibial insert): the parent's surface is sampled at its vertices and integrated over its
-// triangles; the child's closed surface is a signed distance grid (built once) that the
-// samples are looked up in; FCL BVHs of both (built once) answer collision and separation.
-// The distance along each parent triangle is taken as linear between its vertices, so area,
-// quasi-volume and energy are exact integrals of that interpolant: continuous in the pose,
-// with derivatives that do not jump when a vertex crosses the surface.
+// tibial insert): the parent's surface is sampled at its vertices (and inside its triangles
+// larger than max_sample_spacing_mm) and integrated over its triangles; the child's closed surface
+// is a signed distance grid (built once) that the samples are looked up in; FCL BVHs of both (built
+// once) answer collision and separation. The distance along each parent triangle is taken as linear
+// between its vertices, so area, quasi-volume and energy are exact integrals of that interpolant:
+// continuous in the pose, with derivatives that do not jump when a vertex crosses the surface.
 class ArticularContact {
  public:
   // Throws InputError if the child surface is not closed, the region selects no triangle, or

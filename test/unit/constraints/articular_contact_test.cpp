@@ -50,6 +50,40 @@ TEST(ArticularContact, SphereOnPlaneMatchesTheClosedForms) {
   for (const auto& p : f.points) EXPECT_LT(p.position.y(), 0.0101);
 }
 
+// A coarse parent: a block of 12 triangles (as a vendor's model draws a flat face, e.g. a
+// posterior-stabilised box's wall) with a sphere (R = 20 mm, the gridded child) pressed h = 2 mm
+// into the middle of its top face, where no vertex lies. Sampled at its vertices only, the
+// penetration goes unseen; split into triangles of 1 mm or less it matches the closed forms:
+// depth h, area pi a^2 with a^2 = R^2 - d^2, d = R - h, and quasi-volume
+// 2 pi [R a^2 / 2 - (R^3 - d^3) / 3]. The default spacing (3 mm) sees it too.
+TEST(ArticularContact, LargeTrianglesAreSampledInside) {
+  const double r_mm = 20.0;
+  const double h_mm = 2.0;
+  const double d = r_mm - h_mm;
+  const double a2 = r_mm * r_mm - d * d;
+  const Mesh block = sim::box(Eigen::Vector3d(0.02, 0.01, 0.02));  // top face at y = 10 mm
+  const Mesh sphere = sim::uvSphere(r_mm * 1e-3, 128, 256);
+  const Pose sphere_pose = translation(0.0, (10.0 + d) * 1e-3, 0.0);
+  ContactSettings settings = withMeasure(ContactMeasure::kQuasiVolume);
+  settings.max_sample_spacing_mm = 0.0;
+  const ContactFigures vertices_only =
+      ArticularContact(block, sphere, settings).sampledFigures(Pose::Identity(), sphere_pose);
+  EXPECT_EQ(vertices_only.max_depth_m, 0.0);
+  settings.max_sample_spacing_mm = 0.99;  // the 56.6 mm diagonals split 58 times
+  const ContactFigures fine =
+      ArticularContact(block, sphere, settings).sampledFigures(Pose::Identity(), sphere_pose);
+  const double area = M_PI * a2;
+  const double volume = 2.0 * M_PI * (r_mm * a2 / 2.0 - (std::pow(r_mm, 3) - std::pow(d, 3)) / 3.0);
+  EXPECT_NEAR(fine.max_depth_m * 1e3, h_mm, 0.02 * h_mm);
+  EXPECT_NEAR(fine.area_m2 * 1e6, area, 0.02 * area);
+  EXPECT_NEAR(fine.quasi_volume_m3 * 1e9, volume, 0.02 * volume);
+  const ContactFigures by_default =
+      ArticularContact(block, sphere, withMeasure(ContactMeasure::kQuasiVolume))
+          .sampledFigures(Pose::Identity(), sphere_pose);
+  EXPECT_NEAR(by_default.max_depth_m * 1e3, h_mm, 0.1 * h_mm);
+  EXPECT_NEAR(by_default.quasi_volume_m3 * 1e9, volume, 0.1 * volume);
+}
+
 // Two overlapping spheres (r sampled, R gridded, centres c apart): depth r + R - c; the part of
 // the small sphere inside the big one is a cap of height r - (c^2 + r^2 - R^2) / 2c; the
 // integral of the depth R - |p - cB| over it is (2 pi r / c) [R s^2/2 - s^3/3] from c - r to R.
@@ -163,6 +197,9 @@ TEST(ArticularContact, RejectsAnOpenChildSurfaceAnEmptyRegionAndBadNames) {
   nowhere.region.box =
       Eigen::AlignedBox3d(Eigen::Vector3d::Constant(1.0), Eigen::Vector3d::Constant(2.0));
   EXPECT_THROW_WITH(ArticularContact(sphere, sphere, nowhere), "selects no triangle");
+  ContactSettings negative_spacing;
+  negative_spacing.max_sample_spacing_mm = -1.0;
+  EXPECT_THROW_WITH(ArticularContact(sphere, sphere, negative_spacing), "max_sample_spacing_mm");
   EXPECT_THROW_WITH(contactMeasureFromName("volume"), "quasi_volume");
   EXPECT_EQ(contactMeasureFromName("elastic_energy"), ContactMeasure::kElasticEnergy);
 }

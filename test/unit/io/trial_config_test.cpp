@@ -103,6 +103,7 @@ TEST(TrialConfig, SaveThenLoadRoundTrip) {
   knee.contact.loaded_weight = 3.0;
   knee.contact.exponent = 1.0;
   knee.contact.dead_band_mm = 0.5;
+  knee.contact.max_sample_spacing_mm = 1.5;
   knee.contact.grid.spacing_m = 0.5e-3;
   knee.contact.region.box =
       Eigen::AlignedBox3d(Eigen::Vector3d(-0.04, -0.03, -0.04), Eigen::Vector3d(0.04, 0.0, 0.04));
@@ -127,6 +128,7 @@ TEST(TrialConfig, SaveThenLoadRoundTrip) {
   EXPECT_DOUBLE_EQ(contact.loaded_weight, 3.0);
   EXPECT_DOUBLE_EQ(contact.exponent, 1.0);
   EXPECT_DOUBLE_EQ(contact.dead_band_mm, 0.5);
+  EXPECT_DOUBLE_EQ(contact.max_sample_spacing_mm, 1.5);
   EXPECT_NEAR(contact.grid.spacing_m, 0.5e-3, 1e-12);
   EXPECT_TRUE(contact.region.box.min().isApprox(knee.contact.region.box.min()));
   EXPECT_TRUE(contact.region.box.max().isApprox(knee.contact.region.box.max()));
@@ -559,6 +561,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.joints[0].contact.exponent, contact.exponent);
   EXPECT_DOUBLE_EQ(c.joints[0].contact.loaded_weight, contact.loaded_weight);
   EXPECT_DOUBLE_EQ(c.joints[0].contact.dead_band_mm, contact.dead_band_mm);
+  EXPECT_DOUBLE_EQ(c.joints[0].contact.max_sample_spacing_mm, contact.max_sample_spacing_mm);
   EXPECT_NEAR(c.joints[0].contact.grid.spacing_m, contact.grid.spacing_m, 1e-12);
   EXPECT_NEAR(c.joints[0].contact.grid.margin_m, contact.grid.margin_m, 1e-12);
   EXPECT_NEAR(c.joints[0].contact.grid.exact_band_m, contact.grid.exact_band_m, 1e-12);

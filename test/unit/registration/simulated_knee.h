@@ -24,15 +24,15 @@ inline std::vector<registration::BoneModel> simulatedKneeBones(const sim::TrialS
 // the other).
 inline std::shared_ptr<const registration::Registrar> simulatedKneeRegistrar(
     const sim::TrialSimulator& sim,
-    const registration::RegistrationSettings& settings = registration::RegistrationSettings()) {
+    const registration::RegistrationSettings& settings = registration::RegistrationSettings(),
+    const constraints::ContactSettings& contact = constraints::ContactSettings()) {
   registration::JointModel knee;
   knee.name = "knee";
   knee.parent = 0;
   knee.child = 1;
   knee.side = sim.settings().side;
-  knee.contact = std::make_shared<constraints::ArticularContact>(sim.implants().femoral_component,
-                                                                 sim.implants().tibial_insert,
-                                                                 constraints::ContactSettings());
+  knee.contact = std::make_shared<constraints::ArticularContact>(
+      sim.implants().femoral_component, sim.implants().tibial_insert, contact);
   return std::make_shared<registration::Registrar>(simulatedKneeBones(sim), settings,
                                                    std::vector<registration::JointModel>{knee});
 }
