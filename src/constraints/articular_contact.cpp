@@ -161,6 +161,12 @@ ArticularContact::ArticularContact(const geometry::Mesh& parent_surface,
                                      (v[tri[0]] - v[tri[2]]).norm()});
     const int n =
         spacing_m > 0.0 ? std::max(1, static_cast<int>(std::ceil(longest / spacing_m))) : 1;
+    // A spacing far below the mesh's own would build millions of samples for nothing.
+    if (static_cast<double>(n) * n + static_cast<double>(triangles_.size()) > 5e6) {
+      throw InputError("contact: max_sample_spacing_mm (" +
+                       std::to_string(settings_.max_sample_spacing_mm) +
+                       ") splits the parent's surface into more than 5 million triangles");
+    }
     // The sample at barycentric grid point (i, j) of n: v0 + i/n (v1 - v0) + j/n (v2 - v0).
     const auto gridSample = [&](int i, int j) {
       const int k = n - i - j;

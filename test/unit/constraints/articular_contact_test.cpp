@@ -200,6 +200,9 @@ TEST(ArticularContact, RejectsAnOpenChildSurfaceAnEmptyRegionAndBadNames) {
   ContactSettings negative_spacing;
   negative_spacing.max_sample_spacing_mm = -1.0;
   EXPECT_THROW_WITH(ArticularContact(sphere, sphere, negative_spacing), "max_sample_spacing_mm");
+  ContactSettings minute_spacing;
+  minute_spacing.max_sample_spacing_mm = 1e-4;
+  EXPECT_THROW_WITH(ArticularContact(sphere, sphere, minute_spacing), "5 million");
   EXPECT_THROW_WITH(contactMeasureFromName("volume"), "quasi_volume");
   EXPECT_EQ(contactMeasureFromName("elastic_energy"), ContactMeasure::kElasticEnergy);
 }
