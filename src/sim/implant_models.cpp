@@ -195,6 +195,9 @@ bool isOverInsert(const KneeImplantDimensions& d, double x, double z) {
 }
 
 void KneeImplantDimensions::validate() const {
+  if (!(condyle_track_mm > 0.0) || !(condyle_track_mm < 0.5 * width_mm)) {
+    throw InputError("implants: condyle_track_mm must lie between 0 and half width_mm");
+  }
   if (!(box_width_mm >= 0.0)) throw InputError("implants: box_width_mm must be >= 0");
   if (!posteriorStabilised()) return;
   if (!(box_width_mm < 2.0 * condyle_track_mm)) {

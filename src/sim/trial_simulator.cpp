@@ -88,10 +88,6 @@ void TrialSimulatorSettings::validate() const {
         "simulator: platform_width_mm must be >= 0 (0: none) and platform_top_below_joint_mm "
         "finite");
   }
-  if (!(implants.condyle_track_mm > 0.0) ||
-      !(implants.condyle_track_mm < 0.5 * implants.width_mm)) {
-    throw InputError("simulator: implants.condyle_track_mm must lie between 0 and half width_mm");
-  }
   implants.validate();
   for (const ImplantMeshFile* file : {&implant_meshes.femoral_component,
                                       &implant_meshes.tibial_tray, &implant_meshes.tibial_insert}) {

@@ -65,7 +65,8 @@ struct KneeImplantDimensions {
   double post_offset_mm = -6.0;
 
   bool posteriorStabilised() const { return box_width_mm > 0.0; }
-  // Throws InputError naming the field (e.g. a post wider than its box).
+  // Throws InputError naming the field (e.g. tracks beyond the component's half width, a post
+  // wider than its box).
   void validate() const;
 };
 

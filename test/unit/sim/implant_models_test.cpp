@@ -297,6 +297,12 @@ TEST_F(PosteriorStabilisedKnee, ArticularContactFeelsThePost) {
   }
 }
 
+TEST(ImplantModels, TracksBeyondTheHalfWidthAreNamed) {
+  sim::KneeImplantDimensions d;
+  d.condyle_track_mm = 0.5 * d.width_mm;
+  EXPECT_THROW_WITH(sim::makeKneeImplants(d), "condyle_track_mm");
+}
+
 TEST(ImplantModels, InvalidPosteriorStabilisedSizesAreNamed) {
   sim::KneeImplantDimensions d = posteriorStabilised();
   d.post_width_mm = 17.0;
