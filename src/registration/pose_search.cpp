@@ -213,8 +213,10 @@ void PoseSearchSettings::validate() const {
       !(neutral_penalty_per_unit >= 0.0)) {
     throw InputError("registration search: penalties must be >= 0");
   }
-  if (blobs.threshold_fractions.empty() || blobs.working_size_px < 32) {
-    throw InputError("registration search: blobs need thresholds and working_size_px >= 32");
+  if (blobs.threshold_fractions.empty() || blobs.working_size_px < 32 || blobs.field_edge_px < 0) {
+    throw InputError(
+        "registration search: blobs need thresholds, working_size_px >= 32 and field_edge_px >= "
+        "0");
   }
 }
 

@@ -10,9 +10,16 @@ namespace imaging {
 
 struct ImplantBlobSettings {
   int working_size_px = 256;  // the frame is reduced so that its longer side has this many pixels
-  // Grey-level window from these percentiles of the frame; thresholds are fractions of it.
+  // Grey-level window from these percentiles of the frame; thresholds are fractions of it. If
+  // the frame has flat bands at the implants' end of the grey scale that reach its border (a
+  // collimator, shutters, a letterbox: as attenuating as metal), the same fractions are also
+  // taken of a window whose implants' end comes from the exposed field without them, grown by
+  // field_edge_px working pixels over their soft edge (not if that would keep less than
+  // min_field_fraction of the frame).
   double window_low_percentile = 1.0;
   double window_high_percentile = 99.0;
+  int field_edge_px = 3;
+  double min_field_fraction = 0.1;
   // Candidate thresholds, as fractions of the window from the dark end (implants darker than
   // their surroundings) and, mirrored, from the bright end (either polarity).
   std::vector<double> threshold_fractions = {0.08, 0.16, 0.25, 0.35, 0.45};

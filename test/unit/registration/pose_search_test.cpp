@@ -287,6 +287,44 @@ TEST(ImplantBlobs, ARegionJoinedAtANarrowNeckAlsoOffersItsParts) {
   for (const auto& blob : imaging::findImplantBlobs(image, unsplit)) EXPECT_FALSE(blob.neck_part);
 }
 
+// An implant in a hazy, collimated field: the collimator's unexposed disc edge is black, the
+// field grey 200 with a bone end across it (grey 112, reaching the collimator) and, touching
+// it, an implant lifted by scatter to grey 95 (`inverted`: the display's negative). A window
+// from the whole frame's percentiles starts at the collimator's level, and its thresholds
+// (16, 32, 50, 70, 90, then the bone end's level) step over the implant's narrow band; from
+// the field's own darkest level one of them separates the implant.
+TEST(ImplantBlobs, TheImplantsEndOfTheGreyWindowComesFromTheExposedField) {
+  const cv::Rect implant(110, 90, 36, 30);
+  for (bool inverted : {false, true}) {
+    cv::Mat image(256, 256, CV_8U, cv::Scalar(0));
+    cv::circle(image, cv::Point(128, 128), 100, cv::Scalar(200), cv::FILLED);
+    cv::Mat band = cv::Mat::zeros(image.size(), CV_8U);
+    cv::circle(band, cv::Point(128, 128), 100, cv::Scalar(255), cv::FILLED);
+    cv::Mat rows = cv::Mat::zeros(image.size(), CV_8U);
+    rows(cv::Rect(0, 120, 256, 16)).setTo(255);
+    image.setTo(112, band & rows);
+    image(implant).setTo(95);
+    if (inverted) image = 255 - image;
+    const auto found = [&](const imaging::ImplantBlobSettings& settings) {
+      for (const auto& blob : imaging::findImplantBlobs(image, settings)) {
+        if (blob.dark != !inverted || blob.neck_part) continue;
+        const Eigen::Vector2d centre(implant.x + 0.5 * (implant.width - 1),
+                                     implant.y + 0.5 * (implant.height - 1));
+        if (std::abs(blob.area_px - implant.area()) < 0.1 * implant.area() &&
+            (blob.centroid - centre).norm() < 2.0) {
+          return true;
+        }
+      }
+      return false;
+    };
+    EXPECT_TRUE(found({})) << (inverted ? "inverted" : "dark implant");
+    imaging::ImplantBlobSettings whole_frame;
+    whole_frame.min_field_fraction = 1.1;  // never enough field: the whole frame's window
+    EXPECT_FALSE(found(whole_frame)) << (inverted ? "inverted" : "dark implant")
+                                     << ": the test shows nothing about the field's window";
+  }
+}
+
 // In deep flexion the femoral component and the tray form one region; the search still finds
 // both (chamfer matching of each bone's library on the frame's edges).
 TEST(PoseSearch, FindsBothComponentsInDeepFlexion) {
@@ -341,6 +379,49 @@ TEST(PoseSearch, FindsBothComponentsWithNoGuess) {
   }
 }
 
+// A small knee in extension under heavy scatter and blur, in a field collimated to two thirds of
+// the frame: the haze lifts the implants' grey towards the bone ends beside them, and with the
+// grey window taken from the whole frame (whose darkest part is the collimator) no threshold
+// separated either component from them (imaging::findImplantBlobs). Tracked from no guess, such
+// a trial's first 10 frames were lost before tracking found the knee.
+TEST(PoseSearch, FindsAHazySmallKneeInACollimatedField) {
+  sim::TrialSimulatorSettings s;
+  s.motion.frames = 10;
+  s.implants.width_mm = 60.0;
+  s.implants.distal_radius_mm = 21.0;
+  s.implants.posterior_radius_mm = 19.0;
+  s.implants.tray_ap_mm = 42.0;
+  s.implants.tray_ml_mm = 64.0;
+  s.detector.scatter_strength = 0.4;
+  s.detector.blur_sigma_px = 1.2;
+  s.detector.collimator_radius_fraction = 0.65;
+  const sim::TrialSimulator sim(s);
+  std::mt19937_64 rng(23);
+  const auto frame = sim.render(0, &rng);
+  const std::vector<registration::ViewImage> views = {{frame.images[0], sim.views()[0].camera}};
+  const registration::PoseSearch search(simulatedKneeRegistrar(sim));
+  const auto found = search.search(views);
+  expectBothBonesWithinCriterion(found.registration, frame, sim.views()[0].camera, "hazy knee");
+
+  registration::PoseSearchSettings whole_frame;
+  whole_frame.blobs.min_field_fraction = 1.1;  // the window from the whole frame, as before
+  const registration::PoseSearch before(simulatedKneeRegistrar(sim), whole_frame);
+  const Pose camera_from_fixed = sim.views()[0].camera.worldFromCamera().inverse();
+  const std::vector<Pose> truth = {frame.femur, frame.tibia};
+  bool found_before = false;
+  try {
+    const auto r = before.search(views);
+    found_before = true;
+    for (int b = 0; b < 2; ++b) {
+      found_before = found_before && registration::meetsSuccessCriterion(registration::poseError(
+                                         r.registration.poses[b], truth[b], camera_from_fixed));
+    }
+  } catch (const InputError&) {
+  }
+  EXPECT_FALSE(found_before) << "the whole frame's window also finds this knee: the test shows "
+                                "nothing about the field's window";
+}
+
 // A left knee (the right one mirrored, seen with anterior to the image right) is found like a
 // right one, and the registration reports its joint in the left knee's clinical signs (with
 // the right knee's, adduction and internal rotation would come out negated).
@@ -384,7 +465,9 @@ TEST(PoseSearch, FindsALeftKneeWithNoGuess) {
 // inside the femoral component's larger triangles (ContactSettings::max_sample_spacing_mm, stop
 // 46): with it the first pass finds this component, and every frame of this trial but one
 // (where neither pass does), so the retry pass is shown with contact sampled at the vertices
-// only, as before.
+// only, as before. And so does the region thresholds' window from the exposed field
+// (ImplantBlobSettings::min_field_fraction, stop 47), whose regions let the first pass find
+// this component too: the searches here take the window from the whole frame, as before.
 TEST(PoseSearch, ARetryWithALowerEdgeThresholdFindsABrightFemoralComponentInDeepFlexion) {
   sim::TrialSimulatorSettings s;
   s.motion.frames = 25;
@@ -404,7 +487,9 @@ TEST(PoseSearch, ARetryWithALowerEdgeThresholdFindsABrightFemoralComponentInDeep
   const auto registrar = simulatedKneeRegistrar(sim, no_reflection_retry, vertices_only);
 
   // The first pass alone: the femoral component is not found, or not with an ok status.
-  registration::PoseSearchSettings first_pass_only;
+  registration::PoseSearchSettings whole_frame_window;
+  whole_frame_window.blobs.min_field_fraction = 1.1;
+  registration::PoseSearchSettings first_pass_only = whole_frame_window;
   first_pass_only.retry_edge_high_fraction = 0.0;
   const registration::PoseSearch without_retry(registrar, first_pass_only);
   bool femur_found_ok = false;
@@ -428,7 +513,7 @@ TEST(PoseSearch, ARetryWithALowerEdgeThresholdFindsABrightFemoralComponentInDeep
         << " mm, rotation " << femur.rotation_deg.transpose() << " deg";
     EXPECT_EQ(found.status[0], "ok") << label;
   };
-  const registration::PoseSearch search(registrar);
+  const registration::PoseSearch search(registrar, whole_frame_window);
   ASSERT_GT(search.settings().edge_high_fraction, search.settings().retry_edge_high_fraction);
   const auto found = search.search({{frame.images[0], camera}});
   EXPECT_EQ(found.passes, 2);
@@ -439,6 +524,13 @@ TEST(PoseSearch, ARetryWithALowerEdgeThresholdFindsABrightFemoralComponentInDeep
                                                              first_pass_only);
   expect_femur_found(first_pass_with_reflections.search({{frame.images[0], camera}}),
                      "first pass with the reflection retry");
+
+  // So is the first pass with the window from the exposed field as well (the default).
+  registration::PoseSearchSettings first_pass_field_window;
+  first_pass_field_window.retry_edge_high_fraction = 0.0;
+  const registration::PoseSearch with_field_window(registrar, first_pass_field_window);
+  expect_femur_found(with_field_window.search({{frame.images[0], camera}}),
+                     "first pass with the field's window");
 }
 
 TEST(PoseSearch, ABlankFrameIsReportedNotGuessed) {
