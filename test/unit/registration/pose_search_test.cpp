@@ -61,6 +61,26 @@ void expectBothBonesWithinCriterion(const registration::RegistrationResult& foun
   }
 }
 
+// Whether `search` finds both bones of the simulated frame (its only view) within the success
+// criterion; false when it finds nothing at all.
+bool findsBothBones(const registration::PoseSearch& search, const sim::SimulatedFrame& frame,
+                    const geometry::XrayCamera& camera) {
+  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  const std::vector<Pose> truth = {frame.femur, frame.tibia};
+  try {
+    const auto r = search.search({{frame.images[0], camera}});
+    for (int b = 0; b < 2; ++b) {
+      if (!registration::meetsSuccessCriterion(
+              registration::poseError(r.registration.poses[b], truth[b], camera_from_fixed))) {
+        return false;
+      }
+    }
+    return true;
+  } catch (const InputError&) {
+    return false;
+  }
+}
+
 // A tray-like dark block (`stem`, and `plate` across one end of it) in `leg`, on a 256 x 256
 // frame.
 struct ImplantInLeg {
@@ -341,21 +361,10 @@ TEST(PoseSearch, FindsBothComponentsInDeepFlexion) {
   const registration::PoseSearch search(simulatedKneeRegistrar(sim, settings));
   const auto found = search.search({{frame.images[0], sim.views()[0].camera}});
   expectBothBonesWithinCriterion(found.registration, frame, sim.views()[0].camera, "deep flexion");
-  const Pose camera_from_fixed = sim.views()[0].camera.worldFromCamera().inverse();
-  const std::vector<Pose> truth = {frame.femur, frame.tibia};
   registration::PoseSearchSettings regions_only;
   regions_only.edge_matching = false;
   const registration::PoseSearch without(simulatedKneeRegistrar(sim, settings), regions_only);
-  bool found_without = false;
-  try {
-    const auto r = without.search({{frame.images[0], sim.views()[0].camera}});
-    found_without = true;
-    for (int b = 0; b < 2; ++b) {
-      found_without = found_without && registration::meetsSuccessCriterion(registration::poseError(
-                                           r.registration.poses[b], truth[b], camera_from_fixed));
-    }
-  } catch (const InputError&) {
-  }
+  const bool found_without = findsBothBones(without, frame, sim.views()[0].camera);
   EXPECT_FALSE(found_without) << "region matching alone also finds this frame: the test shows "
                                  "nothing about edge matching";
 }
@@ -406,18 +415,7 @@ TEST(PoseSearch, FindsAHazySmallKneeInACollimatedField) {
   registration::PoseSearchSettings whole_frame;
   whole_frame.blobs.min_field_fraction = 1.1;  // the window from the whole frame, as before
   const registration::PoseSearch before(simulatedKneeRegistrar(sim), whole_frame);
-  const Pose camera_from_fixed = sim.views()[0].camera.worldFromCamera().inverse();
-  const std::vector<Pose> truth = {frame.femur, frame.tibia};
-  bool found_before = false;
-  try {
-    const auto r = before.search(views);
-    found_before = true;
-    for (int b = 0; b < 2; ++b) {
-      found_before = found_before && registration::meetsSuccessCriterion(registration::poseError(
-                                         r.registration.poses[b], truth[b], camera_from_fixed));
-    }
-  } catch (const InputError&) {
-  }
+  const bool found_before = findsBothBones(before, frame, sim.views()[0].camera);
   EXPECT_FALSE(found_before) << "the whole frame's window also finds this knee: the test shows "
                                 "nothing about the field's window";
 }
