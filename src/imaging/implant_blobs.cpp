@@ -11,6 +11,11 @@ namespace fluoro_tracker {
 namespace imaging {
 namespace {
 
+// Grey levels this close, as a fraction of the window, count as one level: a band this near
+// the window's end is flat at that end, and a field's end this near the frame's adds no
+// thresholds of its own.
+constexpr float kSameLevelFraction = 0.02f;
+
 // Value below which `fraction` of a CV_32F image's pixels lie, of those where `mask` is set.
 float quantile(const cv::Mat& image, const cv::Mat& mask, double fraction) {
   std::vector<float> v;
@@ -80,7 +85,7 @@ bool isDuplicate(const ImplantBlob& blob, const std::vector<ImplantBlob>& kept) 
 float implantEndOfWindow(const cv::Mat& grey, const ImplantBlobSettings& settings, bool dark,
                          float whole_low, float whole_high) {
   const float whole_end = dark ? whole_low : whole_high;
-  const float flat = 0.02f * (whole_high - whole_low);
+  const float flat = kSameLevelFraction * (whole_high - whole_low);
   cv::Mat outside =
       borderRegions(dark ? cv::Mat(grey <= whole_low + flat) : cv::Mat(grey >= whole_high - flat));
   if (cv::countNonZero(outside) == 0) return whole_end;
@@ -246,8 +251,8 @@ std::vector<ImplantBlob> findImplantBlobs(const cv::Mat& image,
     // The field's thresholds are added to the frame's, not put in their place. In their place
     // they found 143 of 160 default frames with no guess against the frame's 147 (`benchmark
     // --protocol search`, seeds 3 / 5 / 7 / 11; frames flipped both ways); both find 148.
-    const bool field_end =
-        dark ? dark_low > low + 0.02f * (high - low) : bright_high < high - 0.02f * (high - low);
+    const float same_level = kSameLevelFraction * (high - low);
+    const bool field_end = dark ? dark_low > low + same_level : bright_high < high - same_level;
     if (field_end) {
       for (double fraction : settings.threshold_fractions) {
         levels.push_back(dark ? dark_low + fraction * (high - dark_low)

@@ -213,10 +213,11 @@ void PoseSearchSettings::validate() const {
       !(neutral_penalty_per_unit >= 0.0)) {
     throw InputError("registration search: penalties must be >= 0");
   }
-  if (blobs.threshold_fractions.empty() || blobs.working_size_px < 32 || blobs.field_edge_px < 0) {
+  if (blobs.threshold_fractions.empty() || blobs.working_size_px < 32 || blobs.field_edge_px < 0 ||
+      !(blobs.min_field_fraction >= 0.0)) {
     throw InputError(
-        "registration search: blobs need thresholds, working_size_px >= 32 and field_edge_px >= "
-        "0");
+        "registration search: blobs need thresholds, working_size_px >= 32, field_edge_px >= 0 "
+        "and min_field_fraction >= 0");
   }
 }
 
