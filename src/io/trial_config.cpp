@@ -216,6 +216,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "coarse_outer_iterations",
                      "tracking_scales",
                      "tracking_retry",
+                     "tracking_retry_inlier_drop",
+                     "tracking_retry_min_inlier_gain",
                      "tracking_prediction",
                      "solver_iterations",
                      "contour_spacing_px",
@@ -272,6 +274,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("coarse_outer_iterations", &r.coarse_outer_iterations);
   section.read("tracking_scales", &r.tracking_scales);
   section.read("tracking_retry", &r.tracking_retry);
+  section.read("tracking_retry_inlier_drop", &r.tracking_retry_inlier_drop);
+  section.read("tracking_retry_min_inlier_gain", &r.tracking_retry_min_inlier_gain);
   std::string tracking_prediction = registration::trackingPredictionName(r.tracking_prediction);
   section.read("tracking_prediction", &tracking_prediction);
   section.read("solver_iterations", &r.solver_iterations);

@@ -23,6 +23,11 @@ double InlierHistory::median(std::size_t bone) const {
   return fluoro_tracker::median(std::vector<double>(recent_[bone].begin(), recent_[bone].end()));
 }
 
+bool InlierHistory::fallsBelowMedian(std::size_t bone, double fraction, double drop) const {
+  if (bone >= recent_.size() || recent_[bone].size() < min_frames_) return false;
+  return fraction < median(bone) - drop;
+}
+
 double InlierHistory::reference(std::size_t bone) const {
   return referenceAround(bone, median(bone));
 }

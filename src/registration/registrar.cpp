@@ -607,6 +607,12 @@ void RegistrationSettings::validate() const {
         "outer_iterations >= 1, solver_iterations >= 1, continued_outer_iterations >= 0, "
         "abandon_cost_ratio > 0, abandon_deviation_excess > 0 and start_deviation_excess > 0");
   }
+  if (!(tracking_retry_inlier_drop >= 0.0 && tracking_retry_inlier_drop <= 1.0) ||
+      !(tracking_retry_min_inlier_gain >= 0.0)) {
+    throw InputError(
+        "registration: tracking_retry_inlier_drop must be in [0, 1] and "
+        "tracking_retry_min_inlier_gain >= 0");
+  }
   if (!(reflection_retry.below_inlier_fraction >= 0.0 &&
         reflection_retry.below_inlier_fraction <= 1.0) ||
       !(reflection_retry.min_inlier_gain >= 0.0)) {

@@ -137,6 +137,34 @@ void Tracker::accept(TrackedFrame* frame) {
   poses_registered_ = !poses_.empty();
 }
 
+std::vector<bool> Tracker::fitsWorseThanRecently(const RegistrationResult& result) const {
+  const double drop = registrar_->settings().tracking_retry_inlier_drop;
+  std::vector<bool> worse(result.quality.size(), false);
+  if (!(drop > 0.0)) return worse;
+  for (std::size_t b = 0; b < worse.size(); ++b) {
+    worse[b] = inlier_history_.fallsBelowMedian(b, result.quality[b].contour_inlier_fraction, drop);
+  }
+  return worse;
+}
+
+bool Tracker::fitsClearlyBetter(const RegistrationResult& retry,
+                                const RegistrationResult& continued,
+                                const std::vector<bool>& fits_worse, int continued_trouble) const {
+  const QualitySettings& quality = registrar_->settings().quality;
+  if (resultRank(retry, quality).first > continued_trouble ||
+      !(retry.final_cost < continued.final_cost)) {
+    return false;
+  }
+  double gain = 0.0;
+  for (std::size_t b = 0; b < fits_worse.size(); ++b) {
+    if (fits_worse[b]) {
+      gain +=
+          retry.quality[b].contour_inlier_fraction - continued.quality[b].contour_inlier_fraction;
+    }
+  }
+  return gain >= registrar_->settings().tracking_retry_min_inlier_gain;
+}
+
 TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vector<bool>& loaded) {
   if (poses_.empty()) return searchAndReset(views);
   if (recovering_) {
@@ -172,15 +200,22 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
       (poses_registered_ ? continuing_registrar_ : registrar_)->solve(views, guess, loaded, priors);
   const QualitySettings& quality = registrar_->settings().quality;
   frame.status = classifyBones(frame.result, quality);
+  const bool more_doubt = statusTrouble(frame.status) > previous_trouble_;
+  const std::vector<bool> fits_worse = fitsWorseThanRecently(frame.result);
+  const bool any_fits_worse =
+      std::find(fits_worse.begin(), fits_worse.end(), true) != fits_worse.end();
   if (poses_registered_ && continuing_registrar_ != registrar_ &&
-      registrar_->settings().tracking_retry && statusTrouble(frame.status) > previous_trouble_) {
-    // The continued registration left the frame in more doubt than the last one (see
-    // RegistrationSettings::tracking_retry): the full schedule, from the prediction and, when it
-    // extrapolated, from the last good poses. (Doubt that persists, e.g. contour under an
-    // occluder, is the image's, which no start changes.)
+      registrar_->settings().tracking_retry && (more_doubt || any_fits_worse)) {
+    // The continued registration left the frame in more doubt than the last one, or a bone fits
+    // clearly worse than in its recent frames (see RegistrationSettings::tracking_retry): the
+    // full schedule, from the prediction and, when it extrapolated, from the last good poses.
+    // (Doubt that persists, e.g. contour under an occluder, is the image's, which no start
+    // changes.)
     std::vector<std::vector<geometry::Pose>> starts = {guess};
     if (previous_.size() == poses_.size()) starts.push_back(poses_);
-    auto best_rank = resultRank(frame.result, quality);
+    const RegistrationResult continued = frame.result;
+    const auto continued_rank = resultRank(continued, quality);
+    auto best_rank = continued_rank;
     // As the registrar's depth retry: with threads to spare both starts are solved at once, the
     // second left unused when the first clears the doubt (and one that throws re-solved below,
     // so that it throws only where one thread would).
@@ -197,11 +232,13 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
       if (!retries[k]) retries[k] = registrar_->solve(views, starts[k], loaded, priors);
       RegistrationResult& retry = *retries[k];
       const auto rank = resultRank(retry, quality);
-      if (rank < best_rank) {
+      if (rank < best_rank &&
+          (more_doubt || fitsClearlyBetter(retry, continued, fits_worse, continued_rank.first))) {
         best_rank = rank;
         frame.result = std::move(retry);
       }
-      if (best_rank.first == 0) break;
+      // Without doubt to clear, both starts are weighed.
+      if (more_doubt && best_rank.first == 0) break;
     }
     frame.status = classifyBones(frame.result, quality);
   }

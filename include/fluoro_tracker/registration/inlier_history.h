@@ -39,6 +39,10 @@ class InlierHistory {
   // without any).
   double median(std::size_t bone) const;
 
+  // Whether a bone's fraction lies more than `drop` below the median of its recorded fractions,
+  // once it has min_frames of them (false before).
+  bool fallsBelowMedian(std::size_t bone, double fraction, double drop) const;
+
   // How far below the median a bone's fraction may lie before it is suspect.
   double allowedDrop(std::size_t bone) const;
 

@@ -74,6 +74,14 @@ class Tracker {
  private:
   // Takes a registered frame's poses by their status (lost bones keep their last good pose).
   void accept(TrackedFrame* frame);
+  // Per bone: its inlier fraction lies more than RegistrationSettings::tracking_retry_inlier_drop
+  // below the median of its recent frames.
+  std::vector<bool> fitsWorseThanRecently(const RegistrationResult& result) const;
+  // Whether a retry of a frame not in more doubt replaces its continued result: no bone's status
+  // worse, a lower final cost, and the bones in `fits_worse` gaining at least
+  // tracking_retry_min_inlier_gain of inlier fraction together.
+  bool fitsClearlyBetter(const RegistrationResult& retry, const RegistrationResult& continued,
+                         const std::vector<bool>& fits_worse, int continued_trouble) const;
 
   std::shared_ptr<const Registrar> registrar_;
   // The same registrar without the mirror check, for frames started from registered poses.

@@ -349,6 +349,8 @@ registration:
   coarse_outer_iterations: 3
   tracking_scales: [0.5, 1.0]
   tracking_retry: false
+  tracking_retry_inlier_drop: 0.12
+  tracking_retry_min_inlier_gain: 0.03
   tracking_prediction: constant_velocity
   robust_scale_px: 3.0
   robust_scale_final_px: 1.5
@@ -411,6 +413,8 @@ registration:
   EXPECT_EQ(c.registration.coarse_outer_iterations, 3);
   EXPECT_EQ(c.registration.tracking_scales, (std::vector<double>{0.5, 1.0}));
   EXPECT_FALSE(c.registration.tracking_retry);
+  EXPECT_DOUBLE_EQ(c.registration.tracking_retry_inlier_drop, 0.12);
+  EXPECT_DOUBLE_EQ(c.registration.tracking_retry_min_inlier_gain, 0.03);
   EXPECT_EQ(c.registration.tracking_prediction,
             registration::RegistrationSettings::TrackingPrediction::kConstantVelocity);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, 3.0);
@@ -465,6 +469,10 @@ registration:
                              "abandon_deviation_excess > 0");
   expectRegistrationRejected("{mirror_check: {start_deviation_excess: .nan}}",
                              "start_deviation_excess > 0");
+  expectRegistrationRejected("{tracking_retry_inlier_drop: -0.1}",
+                             "tracking_retry_inlier_drop must be in [0, 1]");
+  expectRegistrationRejected("{tracking_retry_min_inlier_gain: .nan}",
+                             "tracking_retry_min_inlier_gain >= 0");
   expectRegistrationRejected("{reflection_retry: {below_inlier_fraction: 1.5}}",
                              "reflection_retry needs below_inlier_fraction in [0, 1]");
   expectRegistrationRejected("{reflection_retry: {min_inlier_gain: -0.1}}", "min_inlier_gain >= 0");
