@@ -137,10 +137,12 @@ void Tracker::accept(TrackedFrame* frame) {
   poses_registered_ = !poses_.empty();
 }
 
-std::vector<bool> Tracker::fitsWorseThanRecently(const RegistrationResult& result) const {
+std::vector<bool> Tracker::fitsWorseThanRecently(const RegistrationResult& result,
+                                                 std::size_t views) const {
   const double drop = registrar_->settings().tracking_retry_inlier_drop;
   std::vector<bool> worse(result.quality.size(), false);
-  if (!(drop > 0.0)) return worse;
+  // A second view sees the depth that the edge offset trades against in one.
+  if (!(drop > 0.0) || views != 1) return worse;
   for (std::size_t b = 0; b < worse.size(); ++b) {
     worse[b] = inlier_history_.fallsBelowMedian(b, result.quality[b].contour_inlier_fraction, drop);
   }
@@ -201,7 +203,7 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
   const QualitySettings& quality = registrar_->settings().quality;
   frame.status = classifyBones(frame.result, quality);
   const bool more_doubt = statusTrouble(frame.status) > previous_trouble_;
-  const std::vector<bool> fits_worse = fitsWorseThanRecently(frame.result);
+  const std::vector<bool> fits_worse = fitsWorseThanRecently(frame.result, views.size());
   const bool any_fits_worse =
       std::find(fits_worse.begin(), fits_worse.end(), true) != fits_worse.end();
   if (poses_registered_ && continuing_registrar_ != registrar_ &&

@@ -226,20 +226,21 @@ struct RegistrationSettings {
   // A tracked frame whose doubt did not rise is also registered again (the same full schedule and
   // starts) when a bone's contour inlier fraction lies more than tracking_retry_inlier_drop below
   // the median of its recent frames (InlierHistory, once it has relative_inlier_min_frames of
-  // them; 0 turns this off). Here a retry replaces the continued result only if no bone's status
-  // is worse, the frame's final cost is lower and those bones' fractions gain at least
-  // tracking_retry_min_inlier_gain together: the continued result is not in doubt, so the retry
-  // must fit clearly better. Why: the continued registration starts each frame from the last
-  // one's result and carried edge offset (EdgeOffsetTrackingSettings), and a bone's offset and
-  // its depth change its outline almost alike, so the two can slide together a little in every
-  // frame. On a simulated trial of bright titanium at half the dose in an oblique view, with beads
-  // and a platform, the knee went 34 mm along the beam over ten frames (the femoral component's
-  // offset 0.76 -> -0.94 px, the tray tilted 7 deg, inliers 0.93 -> 0.75), every status ok: the
-  // inlier history's trend line follows so slow a decline. The full schedule from the same
-  // starts fits 0.95-0.99 of both outlines there. Measured on 91 tracked simulated trials (the 23
-  // robustness variants at their own seeds and seeds 1-3; README "Tracking quality"): 5274 ->
-  // 5289 of 5340 frames within the criteria, along the beam 1.60 -> 1.49 mm (mean of the trials'
-  // RMS); the retry runs in 0-12 frames of 60 (none on most trials).
+  // them; 0 turns this off; single view only, as a second view sees the depth). Here a retry
+  // replaces the continued result only if no bone's status is worse, the frame's final cost is
+  // lower and those bones' fractions gain at least tracking_retry_min_inlier_gain together: the
+  // continued result is not in doubt, so the retry must fit clearly better. Why: the continued
+  // registration starts each frame from the last one's result and carried edge offset
+  // (EdgeOffsetTrackingSettings), and a bone's offset and its depth change its outline almost
+  // alike, so the two can slide together a little in every frame. On a simulated trial of bright
+  // titanium at half the dose in an oblique view, with beads and a platform, the knee went 34 mm
+  // along the beam over ten frames (the femoral component's offset 0.76 -> -0.94 px, the tray
+  // tilted 7 deg, inliers 0.93 -> 0.75), every status ok: the inlier history's trend line
+  // follows so slow a decline. The full schedule from the same starts fits 0.95-0.99 of both
+  // outlines there. Measured on 92 tracked simulated trials (the 23 robustness variants at their
+  // own seeds and seeds 1-3; README "Registration"): 5334 -> 5349 of 5400 frames within the
+  // criteria, along the beam 1.60 -> 1.49 mm (mean of the trials' RMS); the retry runs in 0-12
+  // frames of 60 (none on most trials).
   double tracking_retry_inlier_drop = 0.08;
   double tracking_retry_min_inlier_gain = 0.05;
   // How the tracker predicts a frame's start from the last two good frames (predictPoses):

@@ -75,8 +75,9 @@ class Tracker {
   // Takes a registered frame's poses by their status (lost bones keep their last good pose).
   void accept(TrackedFrame* frame);
   // Per bone: its inlier fraction lies more than RegistrationSettings::tracking_retry_inlier_drop
-  // below the median of its recent frames.
-  std::vector<bool> fitsWorseThanRecently(const RegistrationResult& result) const;
+  // below the median of its recent frames (single view only; all false with more views).
+  std::vector<bool> fitsWorseThanRecently(const RegistrationResult& result,
+                                          std::size_t views) const;
   // Whether a retry of a frame not in more doubt replaces its continued result: no bone's status
   // worse, a lower final cost, and the bones in `fits_worse` gaining at least
   // tracking_retry_min_inlier_gain of inlier fraction together.
