@@ -479,12 +479,18 @@ void EdgeMap::findNearestEdges(const cv::Mat& gx, const cv::Mat& gy, const cv::M
     return;
   }
   distance_ = cv::Mat(edges_.size(), CV_32F, cv::Scalar(kNotWorkedOut));
+  nearest_ = bucketEdgePoints(points, normals, band, edges_.size());
+}
+
+std::shared_ptr<const EdgeMap::NearestEdges> EdgeMap::bucketEdgePoints(
+    const std::vector<Eigen::Vector2d>& points, const std::vector<Eigen::Vector2d>& normals,
+    double band, cv::Size size) {
   // The points bucketed by grid cell (a counting sort), so that a pixel's nearest is found by
   // searching the cells around it ring by ring.
   auto nearest = std::make_shared<NearestEdges>();
   nearest->band = band;
-  nearest->cols = (edges_.cols + kCellPx - 1) / kCellPx;
-  nearest->rows = (edges_.rows + kCellPx - 1) / kCellPx;
+  nearest->cols = (size.width + kCellPx - 1) / kCellPx;
+  nearest->rows = (size.height + kCellPx - 1) / kCellPx;
   const auto cell_of = [&](const Eigen::Vector2d& p) {
     const int cu = std::clamp(static_cast<int>(std::floor(p.x() / kCellPx)), 0, nearest->cols - 1);
     const int cv = std::clamp(static_cast<int>(std::floor(p.y() / kCellPx)), 0, nearest->rows - 1);
@@ -503,7 +509,35 @@ void EdgeMap::findNearestEdges(const cv::Mat& gx, const cv::Mat& gy, const cv::M
     nearest->points[slot] = points[k];
     nearest->normals[slot] = normals[k];
   }
-  nearest_ = std::move(nearest);
+  return nearest;
+}
+
+EdgeMap EdgeMap::withoutEdgesIn(const cv::Mat& mask) const {
+  EdgeMap copy = *this;
+  if (!nearest_ || mask.empty()) return copy.unshared();
+  if (mask.size() != edges_.size() || mask.type() != CV_8U) {
+    throw InputError("edge map: a mask of edges to leave out must be CV_8U and the map's size");
+  }
+  std::vector<Eigen::Vector2d> points;
+  std::vector<Eigen::Vector2d> normals;
+  for (std::size_t k = 0; k < nearest_->points.size(); ++k) {
+    const Eigen::Vector2d& p = nearest_->points[k];
+    const int u = std::clamp(static_cast<int>(std::lround(p.x())), 0, mask.cols - 1);
+    const int v = std::clamp(static_cast<int>(std::lround(p.y())), 0, mask.rows - 1);
+    if (mask.at<uchar>(v, u) != 0) continue;
+    points.push_back(p);
+    normals.push_back(nearest_->normals[k]);
+  }
+  copy.edges_ = edges_.clone();
+  copy.edges_.setTo(0, mask);
+  if (points.empty()) {
+    copy.nearest_.reset();
+    copy.distance_ = cv::Mat(edges_.size(), CV_32F, cv::Scalar(max_distance_));
+    return copy;
+  }
+  copy.nearest_ = bucketEdgePoints(points, normals, nearest_->band, edges_.size());
+  copy.distance_ = cv::Mat(edges_.size(), CV_32F, cv::Scalar(kNotWorkedOut));
+  return copy;
 }
 
 int EdgeMap::NearestEdges::find(const Eigen::Vector2d& pixel, double max_distance) const {

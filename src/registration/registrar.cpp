@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <deque>
 #include <exception>
 #include <initializer_list>
 #include <limits>
@@ -607,6 +608,9 @@ void RegistrationSettings::validate() const {
         "outer_iterations >= 1, solver_iterations >= 1, continued_outer_iterations >= 0, "
         "abandon_cost_ratio > 0, abandon_deviation_excess > 0 and start_deviation_excess > 0");
   }
+  if (!(inner_edge_margin_px >= 0.0) || !std::isfinite(inner_edge_margin_px)) {
+    throw InputError("registration: inner_edge_margin_px must be finite and >= 0");
+  }
   if (!(tracking_retry_inlier_drop >= 0.0 && tracking_retry_inlier_drop <= 1.0) ||
       !(tracking_retry_min_inlier_gain >= 0.0)) {
     throw InputError(
@@ -1033,6 +1037,9 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
         std::vector<Eigen::Vector3d> centres(bones_.size());
         ceres::Problem::Options problem_options;
         problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+        // Maps without the edges deep inside a bone's own silhouette (inner_edge_margin_px):
+        // declared before the problem, whose costs point at them.
+        std::deque<imaging::EdgeMap> inner_edge_maps;
         ceres::Problem problem(problem_options);
         for (std::size_t b = 0; b < bones_.size(); ++b) {
           if (!result.diverged[b]) centres[b] = result.poses[b] * centroids_[b];
@@ -1092,6 +1099,19 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
             const bool predict_edges = finest && (!settings_.edge_offset_hold || outer >= 1);
             const bool render_edges = settings_.rendered_edges.enabled && predict_edges;
             const bool round_corners = settings_.corner_rounding && predict_edges && !render_edges;
+            // The bone's own inner edges left out once its contour is within a pixel or two
+            // (see RegistrationSettings::inner_edge_margin_px).
+            const imaging::EdgeMap* map = &maps[v];
+            if (settings_.inner_edge_margin_px > 0.0 && predict_edges) {
+              cv::Mat inside = bones_[b].silhouette->mask(camera, camera_from_fixed * pose);
+              const int margin = std::max(
+                  1, static_cast<int>(std::lround(settings_.inner_edge_margin_px * scale)));
+              cv::erode(inside, inside,
+                        cv::getStructuringElement(cv::MORPH_ELLIPSE,
+                                                  cv::Size(2 * margin + 1, 2 * margin + 1)));
+              inner_edge_maps.push_back(maps[v].withoutEdgesIn(inside));
+              map = &inner_edge_maps.back();
+            }
             const std::vector<double> rounding =
                 render_edges
                     ? renderedEdgeRounding(*bones_[b].silhouette, camera, camera_from_fixed * pose,
@@ -1110,7 +1130,7 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
             double* offset = &offsets[b][v];
             const int bone = static_cast<int>(b);
             add_block(
-                new ContourDistanceCost(&maps[v], std::move(points), std::move(offset_directions),
+                new ContourDistanceCost(map, std::move(points), std::move(offset_directions),
                                         centres[b], robust_scale, image_weight, std::move(shifts)),
                 {increments[b].data(), offset}, {bone, -1}, true);
             // The offset is a fraction of a pixel: held, it is free only once the contour is
@@ -1132,9 +1152,8 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
               problem.SetParameterBlockConstant(offset);
             }
             if (settings_.reverse_term_weight > 0.0) {
-              auto pairs =
-                  edgeContourPairs(maps[v], contour, pose, settings_.reverse_band_px * scale,
-                                   forward_count, settings_.edge_offset_model, rounding);
+              auto pairs = edgeContourPairs(*map, contour, pose, settings_.reverse_band_px * scale,
+                                            forward_count, settings_.edge_offset_model, rounding);
               if (!pairs.empty()) {
                 add_block(new EdgeToContourCost(camera, std::move(pairs), centres[b], robust_scale,
                                                 settings_.reverse_term_weight * image_weight),

@@ -749,6 +749,10 @@ int main(int argc, char** argv) {
       "robust-final-px",
       po::value(&settings.robust_scale_final_px)->default_value(settings.robust_scale_final_px),
       "... from the finest scale's second outer iteration on (<= 0: --robust-px throughout)")(
+      "inner-edge-margin-px",
+      po::value(&settings.inner_edge_margin_px)->default_value(settings.inner_edge_margin_px),
+      "from the finest scale's second outer iteration on, leave out the edges this far inside "
+      "each bone's own silhouette (0: off)")(
       "mirror-check",
       po::value(&settings.mirror_check.enabled)->default_value(settings.mirror_check.enabled),
       "single view: also solve from the tibial tray's mirror pose and keep it if it fits as well "

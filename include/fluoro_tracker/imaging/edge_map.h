@@ -83,6 +83,12 @@ class EdgeMap {
   // another thread (the edges and their points, never changed, are still shared).
   EdgeMap unshared() const;
 
+  // A copy without the edges whose sub-pixel points fall on `mask` (CV_8U, the map's size;
+  // non-zero: leave out), with signed distances of its own, e.g. the edges deep inside a bone's
+  // own projected silhouette (RegistrationSettings::inner_edge_margin_px). Throws InputError for
+  // a mask of another size or type.
+  EdgeMap withoutEdgesIn(const cv::Mat& mask) const;
+
   const geometry::XrayCamera& camera() const { return camera_; }
   const cv::Mat& edges() const { return edges_; }  // CV_8U, 255 on edges
   // |signed distance| at every pixel, truncated at `truncation_px` (chamfer matching), CV_32F.
@@ -123,6 +129,10 @@ class EdgeMap {
     int find(const Eigen::Vector2d& pixel, double max_distance) const;
   };
 
+  // The points bucketed by grid cell for a map of `size`.
+  static std::shared_ptr<const NearestEdges> bucketEdgePoints(
+      const std::vector<Eigen::Vector2d>& points, const std::vector<Eigen::Vector2d>& normals,
+      double band, cv::Size size);
   // `edge_pixels`: edges_'s non-zero pixels in row-major order.
   void findNearestEdges(const cv::Mat& gx, const cv::Mat& gy, const cv::Mat& magnitude,
                         const std::vector<cv::Point>& edge_pixels, double band);

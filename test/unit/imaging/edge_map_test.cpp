@@ -268,3 +268,30 @@ TEST(EdgeMap, BadImagesNameTheProblem) {
   negative.min_edge_significance = -1.0;
   EXPECT_THROW_WITH(EdgeMap(disc(false), kCamera, negative), "min_edge_significance");
 }
+
+// Edges on a mask are left out: a dark disc's outline under the mask no longer exists in the
+// copy, which measures from the edges left (here none: the far distance), while the original
+// map is unchanged; a mask of another size is refused.
+TEST(EdgeMap, EdgesOnAMaskAreLeftOutOfACopy) {
+  const EdgeMap map(disc(false), kCamera, imaging::EdgeMapSettings());
+  double d = 0.0, du = 0.0, dv = 0.0;
+  // A point on the outline, to the disc's right.
+  ASSERT_TRUE(map.sample(100.0 + kDiscRadius, 80.0, &d, &du, &dv));
+  EXPECT_LT(std::abs(d), 0.3);
+  cv::Mat everything(map.edges().size(), CV_8U, cv::Scalar(255));
+  const EdgeMap none = map.withoutEdgesIn(everything);
+  EXPECT_EQ(cv::countNonZero(none.edges()), 0);
+  ASSERT_TRUE(none.sample(100.0 + kDiscRadius, 80.0, &d, &du, &dv));
+  EXPECT_GT(std::abs(d), 10.0);
+  // Only the left half masked: the right half's outline is still there, the left half's is not.
+  cv::Mat left(map.edges().size(), CV_8U, cv::Scalar(0));
+  left(cv::Rect(0, 0, 100, left.rows)).setTo(255);
+  const EdgeMap right = map.withoutEdgesIn(left);
+  ASSERT_TRUE(right.sample(100.0 + kDiscRadius, 80.0, &d, &du, &dv));
+  EXPECT_LT(std::abs(d), 0.3);
+  ASSERT_TRUE(right.sample(100.0 - kDiscRadius, 80.0, &d, &du, &dv));
+  EXPECT_GT(std::abs(d), 5.0);
+  ASSERT_TRUE(map.sample(100.0 - kDiscRadius, 80.0, &d, &du, &dv));
+  EXPECT_LT(std::abs(d), 0.3);
+  EXPECT_THROW_WITH(map.withoutEdgesIn(cv::Mat(10, 10, CV_8U, cv::Scalar(0))), "map's size");
+}
