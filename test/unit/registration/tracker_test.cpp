@@ -39,6 +39,22 @@ struct Trial {
   }
 };
 
+// A robustness variant (config/robustness/<name>.yaml) and its frames 0 to `last` as
+// simulate_trial writes them (the noise drawn in frame order from the variant's seed).
+struct VariantFrames {
+  sim::TrialSimulator simulator;
+  std::vector<sim::SimulatedFrame> frames;
+
+  VariantFrames(const std::string& name, int last)
+      : simulator(sim::loadSimulatorSettings(std::string(FLUORO_SOURCE_DIR) +
+                                             "/config/robustness/" + name + ".yaml")) {
+    std::mt19937_64 rng(simulator.settings().seed);
+    for (int f = 0; f <= last; ++f) frames.push_back(simulator.render(f, &rng));
+  }
+  const geometry::XrayCamera& camera() const { return simulator.views()[0].camera; }
+  Pose cameraFromFixed() const { return camera().worldFromCamera().inverse(); }
+};
+
 }  // namespace
 
 TEST(Tracker, FollowsATrialFromItsFirstPose) {
@@ -293,15 +309,7 @@ TEST(Tracker, ChecksTheMirrorFromPosesTheUserGaveAndNearMirrorsWhileTracking) {
 // schedule (RegistrationSettings::tracking_retry_inlier_drop), which keeps the knee near the
 // truth.
 TEST(Tracker, RetriesAFrameWhoseBoneFitsWorseThanItsRecentFrames) {
-  const sim::TrialSimulatorSettings s = sim::loadSimulatorSettings(
-      std::string(FLUORO_SOURCE_DIR) + "/config/robustness/titanium_clutter_oblique.yaml");
-  const sim::TrialSimulator simulator(s);
-  // The frames simulate_trial writes for this variant (its noise drawn in frame order).
-  std::mt19937_64 rng(s.seed);
-  std::vector<sim::SimulatedFrame> frames;
-  for (int f = 0; f <= 25; ++f) frames.push_back(simulator.render(f, &rng));
-  const geometry::XrayCamera& camera = simulator.views()[0].camera;
-  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  const VariantFrames variant("titanium_clutter_oblique", 25);
   struct Run {
     double farthest_mm = 0.0;  // along the beam, either bone, any frame
     int successes = 0;
@@ -309,15 +317,17 @@ TEST(Tracker, RetriesAFrameWhoseBoneFitsWorseThanItsRecentFrames) {
   const auto track = [&](double inlier_drop) {
     registration::RegistrationSettings settings;
     settings.tracking_retry_inlier_drop = inlier_drop;
-    registration::Tracker tracker(test_support::simulatedKneeRegistrar(simulator, settings),
-                                  {frames[0].femur, frames[0].tibia});
+    registration::Tracker tracker(test_support::simulatedKneeRegistrar(variant.simulator, settings),
+                                  {variant.frames[0].femur, variant.frames[0].tibia});
     Run run;
-    for (const sim::SimulatedFrame& frame : frames) {
-      const registration::TrackedFrame tracked = tracker.track({{frame.images[0], camera}});
+    for (const sim::SimulatedFrame& frame : variant.frames) {
+      const registration::TrackedFrame tracked =
+          tracker.track({{frame.images[0], variant.camera()}});
       const std::vector<Pose> truth = {frame.femur, frame.tibia};
       bool success = true;
       for (int b = 0; b < 2; ++b) {
-        const auto error = registration::poseError(tracked.poses[b], truth[b], camera_from_fixed);
+        const auto error =
+            registration::poseError(tracked.poses[b], truth[b], variant.cameraFromFixed());
         run.farthest_mm = std::max(run.farthest_mm, std::abs(error.translation_mm.z()));
         success = success && registration::meetsSuccessCriterion(error);
       }
@@ -328,12 +338,12 @@ TEST(Tracker, RetriesAFrameWhoseBoneFitsWorseThanItsRecentFrames) {
   const Run without = track(0.0);
   ASSERT_GT(without.farthest_mm, 15.0)
       << "the knee must drift without the retry for the test to mean anything";
-  ASSERT_LT(without.successes, static_cast<int>(frames.size()) - 5);
+  ASSERT_LT(without.successes, static_cast<int>(variant.frames.size()) - 5);
   const Run with = track(registration::RegistrationSettings().tracking_retry_inlier_drop);
   EXPECT_LT(with.farthest_mm, 10.0);
   // Frame 15 tilts the tray 2.2 deg about its X axis (the criterion: 2) before either bone fits
   // 0.08 worse than its recent frames: no retry yet.
-  EXPECT_GE(with.successes, static_cast<int>(frames.size()) - 1);
+  EXPECT_GE(with.successes, static_cast<int>(variant.frames.size()) - 1);
 }
 
 // The Kneel study's tray in titanium (config/robustness/kneel_titanium_tray.yaml): its plate's
@@ -342,31 +352,25 @@ TEST(Tracker, RetriesAFrameWhoseBoneFitsWorseThanItsRecentFrames) {
 // Leaving out each bone's edges more than 2 px inside its own silhouette once its contour is
 // close (inner_edge_margin_px) keeps the tracked tray within the criteria.
 TEST(Tracker, InnerEdgeMarginKeepsATitaniumTrayOffItsOwnInnerEdges) {
-  const sim::TrialSimulatorSettings s = sim::loadSimulatorSettings(
-      std::string(FLUORO_SOURCE_DIR) + "/config/robustness/kneel_titanium_tray.yaml");
-  const sim::TrialSimulator simulator(s);
-  std::mt19937_64 rng(s.seed);
-  std::vector<sim::SimulatedFrame> frames;
-  for (int f = 0; f <= 20; ++f) frames.push_back(simulator.render(f, &rng));
-  const geometry::XrayCamera& camera = simulator.views()[0].camera;
-  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
+  const VariantFrames variant("kneel_titanium_tray", 20);
   const auto successes = [&](double margin_px) {
     registration::RegistrationSettings settings;
     settings.inner_edge_margin_px = margin_px;
-    registration::Tracker tracker(test_support::simulatedKneeRegistrar(simulator, settings),
-                                  {frames[0].femur, frames[0].tibia});
+    registration::Tracker tracker(test_support::simulatedKneeRegistrar(variant.simulator, settings),
+                                  {variant.frames[0].femur, variant.frames[0].tibia});
     int count = 0;
-    for (const sim::SimulatedFrame& frame : frames) {
-      const registration::TrackedFrame tracked = tracker.track({{frame.images[0], camera}});
-      count += registration::meetsSuccessCriterion(
-                   registration::poseError(tracked.poses[1], frame.tibia, camera_from_fixed))
+    for (const sim::SimulatedFrame& frame : variant.frames) {
+      const registration::TrackedFrame tracked =
+          tracker.track({{frame.images[0], variant.camera()}});
+      count += registration::meetsSuccessCriterion(registration::poseError(
+                   tracked.poses[1], frame.tibia, variant.cameraFromFixed()))
                    ? 1
                    : 0;
     }
     return count;
   };
   const int as_is = successes(0.0);
-  ASSERT_LT(as_is, static_cast<int>(frames.size()) - 5)
+  ASSERT_LT(as_is, static_cast<int>(variant.frames.size()) - 5)
       << "the tray must be drawn to its inner edges for the test to mean anything";
-  EXPECT_GE(successes(2.0), static_cast<int>(frames.size()) - 1);
+  EXPECT_GE(successes(2.0), static_cast<int>(variant.frames.size()) - 1);
 }
