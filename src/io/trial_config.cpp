@@ -225,8 +225,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "robust_scale_final_px",
                      "roi_margin_px",
                      "reverse_term_weight",
-                     "inner_edge_margin_px",
                      "reverse_band_px",
+                     "inner_edge_margin_px",
                      "max_translation_from_start_m",
                      "max_rotation_from_start_rad",
                      "converged_translation_m",
@@ -285,8 +285,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("robust_scale_final_px", &r.robust_scale_final_px);
   section.read("roi_margin_px", &r.roi_margin_px);
   section.read("reverse_term_weight", &r.reverse_term_weight);
-  section.read("inner_edge_margin_px", &r.inner_edge_margin_px);
   section.read("reverse_band_px", &r.reverse_band_px);
+  section.read("inner_edge_margin_px", &r.inner_edge_margin_px);
   section.read("max_translation_from_start_m", &r.max_translation_from_start_m);
   section.read("max_rotation_from_start_rad", &r.max_rotation_from_start_rad);
   section.read("converged_translation_m", &r.converged_translation_m);

@@ -149,12 +149,10 @@ std::vector<bool> Tracker::fitsWorseThanRecently(const RegistrationResult& resul
   return worse;
 }
 
-bool Tracker::fitsClearlyBetter(const RegistrationResult& retry,
-                                const RegistrationResult& continued,
-                                const std::vector<bool>& fits_worse, int continued_trouble) const {
-  const QualitySettings& quality = registrar_->settings().quality;
-  if (resultRank(retry, quality).first > continued_trouble ||
-      !(retry.final_cost < continued.final_cost)) {
+bool Tracker::fitsClearlyBetter(const RegistrationResult& retry, int retry_trouble,
+                                const RegistrationResult& continued, int continued_trouble,
+                                const std::vector<bool>& fits_worse) const {
+  if (retry_trouble > continued_trouble || !(retry.final_cost < continued.final_cost)) {
     return false;
   }
   double gain = 0.0;
@@ -234,8 +232,8 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
       if (!retries[k]) retries[k] = registrar_->solve(views, starts[k], loaded, priors);
       RegistrationResult& retry = *retries[k];
       const auto rank = resultRank(retry, quality);
-      if (rank < best_rank &&
-          (more_doubt || fitsClearlyBetter(retry, continued, fits_worse, continued_rank.first))) {
+      if (rank < best_rank && (more_doubt || fitsClearlyBetter(retry, rank.first, continued,
+                                                               continued_rank.first, fits_worse))) {
         best_rank = rank;
         frame.result = std::move(retry);
       }

@@ -277,6 +277,7 @@ struct RegistrationSettings {
   // The reverse term (image edges near the projection -> contour): its weight relative to the
   // forward term (0 turns it off) and how far from the projected contour edges are paired.
   double reverse_term_weight = 1.0;
+  double reverse_band_px = 8.0;  // edge maps cover the projected bones plus this margin
   // > 0: from the finest scale's second outer iteration on (when the edge offset is freed, see
   // edge_offset_hold), each bone's image terms leave out the edges more than this many
   // full-resolution pixels inside its own projected silhouette (EdgeMap::withoutEdgesIn). A part
@@ -285,7 +286,6 @@ struct RegistrationSettings {
   // hardly shows; its contour is drawn to them (README "Tracking quality", kneel_titanium_tray).
   // 0 (the default): off.
   double inner_edge_margin_px = 0.0;
-  double reverse_band_px = 8.0;  // edge maps cover the projected bones plus this margin
   // A displayed implant edge lies a fraction of a pixel off the geometric silhouette: detector
   // blur acts on intensity before a logarithmic display, and metal thins to nothing at a
   // slanted rim. On a thin part seen edge-on (a tibial tray) half a pixel is millimetres along

@@ -78,11 +78,12 @@ class Tracker {
   // below the median of its recent frames (single view only; all false with more views).
   std::vector<bool> fitsWorseThanRecently(const RegistrationResult& result,
                                           std::size_t views) const;
-  // Whether a retry of a frame not in more doubt replaces its continued result: no bone's status
-  // worse, a lower final cost, and the bones in `fits_worse` gaining at least
-  // tracking_retry_min_inlier_gain of inlier fraction together.
-  bool fitsClearlyBetter(const RegistrationResult& retry, const RegistrationResult& continued,
-                         const std::vector<bool>& fits_worse, int continued_trouble) const;
+  // Whether a retry of a frame not in more doubt replaces its continued result: no more trouble
+  // (statusTrouble, given for each), a lower final cost, and the bones in `fits_worse` gaining at
+  // least tracking_retry_min_inlier_gain of inlier fraction together.
+  bool fitsClearlyBetter(const RegistrationResult& retry, int retry_trouble,
+                         const RegistrationResult& continued, int continued_trouble,
+                         const std::vector<bool>& fits_worse) const;
 
   std::shared_ptr<const Registrar> registrar_;
   // The same registrar without the mirror check, for frames started from registered poses.
