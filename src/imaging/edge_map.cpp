@@ -452,6 +452,7 @@ void EdgeMap::findNearestEdges(const cv::Mat& gx, const cv::Mat& gy, const cv::M
                                const std::vector<cv::Point>& edge_pixels, double band) {
   // Sub-pixel edge points and unit normals (toward the brighter side) at every edge pixel.
   edge_points_ = cv::Mat(edges_.size(), CV_32FC2, cv::Scalar(0, 0));
+  distance_window_ = cv::Rect(0, 0, edges_.cols, edges_.rows);
   std::vector<Eigen::Vector2d> points;
   std::vector<Eigen::Vector2d> normals;
   points.reserve(edge_pixels.size());
@@ -512,35 +513,60 @@ std::shared_ptr<const EdgeMap::NearestEdges> EdgeMap::bucketEdgePoints(
   return nearest;
 }
 
-EdgeMap EdgeMap::withoutEdgesIn(const cv::Mat& mask) const {
+EdgeMap EdgeMap::withoutEdgesIn(const cv::Mat& mask, cv::Point origin) const {
   EdgeMap copy = *this;
-  if (!nearest_ || mask.empty()) return copy.unshared();
-  if (mask.size() != edges_.size() || mask.type() != CV_8U) {
-    throw InputError("edge map: a mask of edges to leave out must be CV_8U and the map's size");
+  if (!mask.empty() && mask.type() != CV_8U) {
+    throw InputError("edge map: a mask of edges to leave out must be CV_8U");
   }
-  std::vector<Eigen::Vector2d> points;
-  std::vector<Eigen::Vector2d> normals;
-  for (std::size_t k = 0; k < nearest_->points.size(); ++k) {
-    const Eigen::Vector2d& p = nearest_->points[k];
-    const int u = std::clamp(static_cast<int>(std::lround(p.x())), 0, mask.cols - 1);
-    const int v = std::clamp(static_cast<int>(std::lround(p.y())), 0, mask.rows - 1);
-    if (mask.at<uchar>(v, u) != 0) continue;
-    points.push_back(p);
-    normals.push_back(nearest_->normals[k]);
+  const cv::Rect map_rect(0, 0, edges_.cols, edges_.rows);
+  const cv::Rect mask_rect = cv::Rect(origin, mask.size()) & map_rect;
+  if (!nearest_ || mask_rect.empty()) return copy.unshared();
+  const cv::Mat on_map = mask(mask_rect - origin);  // the mask's part on the map
+  const auto masked = [&](int u, int v) {
+    return mask_rect.contains(cv::Point(u, v)) &&
+           on_map.at<std::uint8_t>(v - mask_rect.y, u - mask_rect.x) != 0;
+  };
+  const NearestEdges& nearest = *nearest_;
+  auto left_out = left_out_ ? std::make_shared<std::vector<std::uint8_t>>(*left_out_)
+                            : std::make_shared<std::vector<std::uint8_t>>(nearest.points.size(), 0);
+  // Only the cells the mask covers, and one more each side: a point bucketed by its floor may
+  // round to a pixel of the next cell.
+  const int cu0 = std::max(0, mask_rect.x / kCellPx - 1);
+  const int cv0 = std::max(0, mask_rect.y / kCellPx - 1);
+  const int cu1 = std::min(nearest.cols - 1, (mask_rect.br().x - 1) / kCellPx + 1);
+  const int cv1 = std::min(nearest.rows - 1, (mask_rect.br().y - 1) / kCellPx + 1);
+  for (int cv = cv0; cv <= cv1; ++cv) {
+    for (int cu = cu0; cu <= cu1; ++cu) {
+      const int c = cv * nearest.cols + cu;
+      for (int k = nearest.cell_begin[c]; k < nearest.cell_begin[c + 1]; ++k) {
+        const Eigen::Vector2d& p = nearest.points[k];
+        if (masked(static_cast<int>(std::floor(p.x() + 0.5)),
+                   static_cast<int>(std::floor(p.y() + 0.5)))) {
+          (*left_out)[k] = 1;
+        }
+      }
+    }
   }
   copy.edges_ = edges_.clone();
-  copy.edges_.setTo(0, mask);
-  if (points.empty()) {
-    copy.nearest_.reset();
-    copy.distance_ = cv::Mat(edges_.size(), CV_32F, cv::Scalar(max_distance_));
+  copy.edges_(mask_rect).setTo(0, on_map);
+  copy.distance_window_ =
+      cv::Rect(mask_rect.x - kMaskedWindowMarginPx, mask_rect.y - kMaskedWindowMarginPx,
+               mask_rect.width + 2 * kMaskedWindowMarginPx,
+               mask_rect.height + 2 * kMaskedWindowMarginPx) &
+      map_rect;
+  if (std::find(left_out->begin(), left_out->end(), 0) == left_out->end()) {
+    copy.nearest_.reset();  // every edge left out
+    copy.left_out_.reset();
+    copy.distance_ = cv::Mat(copy.distance_window_.size(), CV_32F, cv::Scalar(max_distance_));
     return copy;
   }
-  copy.nearest_ = bucketEdgePoints(points, normals, nearest_->band, edges_.size());
-  copy.distance_ = cv::Mat(edges_.size(), CV_32F, cv::Scalar(kNotWorkedOut));
+  copy.left_out_ = std::move(left_out);
+  copy.distance_ = cv::Mat(copy.distance_window_.size(), CV_32F, cv::Scalar(kNotWorkedOut));
   return copy;
 }
 
-int EdgeMap::NearestEdges::find(const Eigen::Vector2d& pixel, double max_distance) const {
+int EdgeMap::NearestEdges::find(const Eigen::Vector2d& pixel, double max_distance,
+                                const std::uint8_t* left_out) const {
   const int cu = std::clamp(static_cast<int>(pixel.x()) / kCellPx, 0, cols - 1);
   const int cv = std::clamp(static_cast<int>(pixel.y()) / kCellPx, 0, rows - 1);
   const int max_ring = std::max(std::max(cu, cols - 1 - cu), std::max(cv, rows - 1 - cv));
@@ -550,6 +576,7 @@ int EdgeMap::NearestEdges::find(const Eigen::Vector2d& pixel, double max_distanc
     if (u < 0 || v < 0 || u >= cols || v >= rows) return;
     const int c = v * cols + u;
     for (int k = cell_begin[c]; k < cell_begin[c + 1]; ++k) {
+      if (left_out != nullptr && left_out[k] != 0) continue;
       const double squared = (points[k] - pixel).squaredNorm();
       if (squared < best) {
         best = squared;
@@ -577,14 +604,27 @@ int EdgeMap::NearestEdges::find(const Eigen::Vector2d& pixel, double max_distanc
   return best_index;
 }
 
+float EdgeMap::keptDistance(int u, int v) const {
+  const int wu = u - distance_window_.x;
+  const int wv = v - distance_window_.y;
+  if (wu < 0 || wv < 0 || wu >= distance_window_.width || wv >= distance_window_.height) {
+    return kNotWorkedOut;
+  }
+  return distance_.at<float>(wv, wu);
+}
+
+float EdgeMap::distanceAt(int u, int v) const {
+  const float kept = keptDistance(u, v);
+  return kept != kNotWorkedOut ? kept : computeDistance(u, v);
+}
+
 float EdgeMap::computeDistance(int u, int v, int k) const {
-  // distance_ shares its pixels with copies of this map; each is written once, always alike.
-  float& out = const_cast<cv::Mat&>(distance_).at<float>(v, u);
+  if (!nearest_) return static_cast<float>(max_distance_);
   const NearestEdges& nearest = *nearest_;
   const Eigen::Vector2d pixel(u, v);
   // Unbounded search: the sign of a pixel far inside a bright region comes from its nearest
   // edge however far, so that the truncated distance has no jump from -max to +max.
-  if (k < 0) k = nearest.find(pixel, std::numeric_limits<double>::infinity());
+  if (k < 0) k = nearest.find(pixel, std::numeric_limits<double>::infinity(), leftOut());
   const Eigen::Vector2d offset = pixel - nearest.points[k];
   const double along_normal = nearest.normals[k].dot(offset);
   const double squared = offset.squaredNorm();
@@ -601,7 +641,11 @@ float EdgeMap::computeDistance(int u, int v, int k) const {
             ? to_point
             : std::sqrt(along_normal * along_normal + w * (squared - along_normal * along_normal));
   }
-  out = static_cast<float>(along_normal < 0.0 ? -value : value);
+  const float out = static_cast<float>(along_normal < 0.0 ? -value : value);
+  // distance_ shares its pixels with copies of this map; each is written once, always alike.
+  if (distance_window_.contains(cv::Point(u, v))) {
+    const_cast<cv::Mat&>(distance_).at<float>(v - distance_window_.y, u - distance_window_.x) = out;
+  }
   return out;
 }
 
@@ -613,7 +657,7 @@ EdgeMap EdgeMap::unshared() const {
 
 cv::Mat EdgeMap::unsignedDistance(double truncation_px) const {
   const double limit = std::min(truncation_px, max_distance_);  // what far pixels read
-  cv::Mat result(distance_.size(), CV_32F, cv::Scalar(limit));
+  cv::Mat result(edges_.size(), CV_32F, cv::Scalar(limit));
   if (!nearest_) return result;
   // Within twice the line band of its nearest point a pixel's distance may be less than the
   // point's (the tangent line is nearer); beyond both, it is at least `limit`.
@@ -621,14 +665,14 @@ cv::Mat EdgeMap::unsignedDistance(double truncation_px) const {
   for (int v = 0; v < result.rows; ++v) {
     float* row = result.ptr<float>(v);
     for (int u = 0; u < result.cols; ++u) {
-      const float known = distance_.at<float>(v, u);
+      const float known = keptDistance(u, v);
       if (known != kNotWorkedOut) {
         row[u] = static_cast<float>(std::min<double>(std::abs(known), truncation_px));
         continue;
       }
       // A pixel that far from every edge needs no exact nearest: a bounded search.
       const Eigen::Vector2d pixel(u, v);
-      const int k = nearest_->find(pixel, reach);
+      const int k = nearest_->find(pixel, reach, leftOut());
       if (k < 0 || (nearest_->points[k] - pixel).squaredNorm() >= reach * reach) continue;
       row[u] =
           static_cast<float>(std::min<double>(std::abs(computeDistance(u, v, k)), truncation_px));
@@ -638,28 +682,38 @@ cv::Mat EdgeMap::unsignedDistance(double truncation_px) const {
 }
 
 bool EdgeMap::sample(double u, double v, double* distance, double* du, double* dv) const {
-  if (!(u >= 0.0 && v >= 0.0 && u <= distance_.cols - 1.0 && v <= distance_.rows - 1.0)) {
+  if (!(u >= 0.0 && v >= 0.0 && u <= edges_.cols - 1.0 && v <= edges_.rows - 1.0)) {
     *distance = max_distance_;
     *du = 0.0;
     *dv = 0.0;
     return false;
   }
-  const int u0 = std::min(static_cast<int>(u), distance_.cols - 2);
-  const int v0 = std::min(static_cast<int>(v), distance_.rows - 2);
+  const int u0 = std::min(static_cast<int>(u), edges_.cols - 2);
+  const int v0 = std::min(static_cast<int>(v), edges_.rows - 2);
   const double a = u - u0;
   const double b = v - v0;
+  double f00, f10, f01, f11;
+  const int wu = u0 - distance_window_.x;
+  const int wv = v0 - distance_window_.y;
+  if (wu >= 0 && wv >= 0 && wu + 1 < distance_window_.width && wv + 1 < distance_window_.height) {
+    const float* r0 = distance_.ptr<float>(wv) + wu;
+    const float* r1 = distance_.ptr<float>(wv + 1) + wu;
+    const auto at = [&](const float* row, int column, int uu, int vv) -> double {
+      return row[column] == kNotWorkedOut ? computeDistance(uu, vv) : row[column];
+    };
+    f00 = at(r0, 0, u0, v0);
+    f10 = at(r0, 1, u0 + 1, v0);
+    f01 = at(r1, 0, u0, v0 + 1);
+    f11 = at(r1, 1, u0 + 1, v0 + 1);
+  } else {
+    f00 = distanceAt(u0, v0);
+    f10 = distanceAt(u0 + 1, v0);
+    f01 = distanceAt(u0, v0 + 1);
+    f11 = distanceAt(u0 + 1, v0 + 1);
+  }
   // Bilinear interpolation and its exact derivative, so that solver Jacobians are consistent
   // with the values (a smoothed gradient underestimates the slope next to an edge, where the
   // distance has its V-shaped minimum).
-  const float* r0 = distance_.ptr<float>(v0);
-  const float* r1 = distance_.ptr<float>(v0 + 1);
-  const auto at = [&](const float* row, int uu, int vv) -> double {
-    return row[uu] == kNotWorkedOut ? computeDistance(uu, vv) : row[uu];
-  };
-  const double f00 = at(r0, u0, v0);
-  const double f10 = at(r0, u0 + 1, v0);
-  const double f01 = at(r1, u0, v0 + 1);
-  const double f11 = at(r1, u0 + 1, v0 + 1);
   *distance = (1 - b) * ((1 - a) * f00 + a * f10) + b * ((1 - a) * f01 + a * f11);
   *du = (1 - b) * (f10 - f00) + b * (f11 - f01);
   *dv = (1 - a) * (f01 - f00) + a * (f11 - f10);

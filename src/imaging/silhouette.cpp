@@ -140,7 +140,8 @@ cv::Mat SilhouetteModel::mask(const geometry::XrayCamera& camera,
 
 std::vector<ContourPoint> SilhouetteModel::contour(const geometry::XrayCamera& camera,
                                                    const geometry::Pose& camera_from_mesh,
-                                                   double spacing_px) const {
+                                                   double spacing_px, SilhouetteCrop* crop) const {
+  if (crop != nullptr) *crop = SilhouetteCrop();
   const Projection projection = project(camera, camera_from_mesh);
   const auto& vertices = mesh_.vertices();
   const auto& pixels = projection.pixels;
@@ -155,6 +156,7 @@ std::vector<ContourPoint> SilhouetteModel::contour(const geometry::XrayCamera& c
   std::vector<ContourPoint> out;
   if (x1 <= x0 || y1 <= y0) return out;  // entirely outside the image
   const cv::Mat mask = fillSilhouette(projection, x0, y0, x1 - x0 + 1, y1 - y0 + 1);
+  if (crop != nullptr) *crop = SilhouetteCrop{mask, cv::Point(x0, y0)};
   const auto covered = [&](const Eigen::Vector2d& p) {
     // Nearest pixel (floor of x + 0.5: std::lround's library call was a tenth of this loop).
     const int u = static_cast<int>(std::floor(p.x() + 0.5)) - x0;

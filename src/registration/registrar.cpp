@@ -1081,8 +1081,9 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
           for (std::size_t v = 0; v < views.size(); ++v) {
             const geometry::XrayCamera& camera = maps[v].camera();
             const geometry::Pose camera_from_fixed = camera.worldFromCamera().inverse();
-            const auto contour = bones_[b].silhouette->contour(camera, camera_from_fixed * pose,
-                                                               settings_.contour_spacing_px);
+            imaging::SilhouetteCrop silhouette;
+            const auto contour = bones_[b].silhouette->contour(
+                camera, camera_from_fixed * pose, settings_.contour_spacing_px, &silhouette);
             if (finest) {
               auto& kept = finest_model_points[b][v];
               kept.clear();
@@ -1103,13 +1104,13 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
             // (see RegistrationSettings::inner_edge_margin_px).
             const imaging::EdgeMap* map = &maps[v];
             if (settings_.inner_edge_margin_px > 0.0 && predict_edges) {
-              cv::Mat inside = bones_[b].silhouette->mask(camera, camera_from_fixed * pose);
               const int margin = std::max(
                   1, static_cast<int>(std::lround(settings_.inner_edge_margin_px * scale)));
-              cv::erode(inside, inside,
+              cv::Mat inside;
+              cv::erode(silhouette.mask, inside,
                         cv::getStructuringElement(cv::MORPH_ELLIPSE,
                                                   cv::Size(2 * margin + 1, 2 * margin + 1)));
-              inner_edge_maps.push_back(maps[v].withoutEdgesIn(inside));
+              inner_edge_maps.push_back(maps[v].withoutEdgesIn(inside, silhouette.origin));
               map = &inner_edge_maps.back();
             }
             const std::vector<double> rounding =

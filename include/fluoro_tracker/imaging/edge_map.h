@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -83,11 +84,15 @@ class EdgeMap {
   // another thread (the edges and their points, never changed, are still shared).
   EdgeMap unshared() const;
 
-  // A copy without the edges whose sub-pixel points fall on `mask` (CV_8U, the map's size;
-  // non-zero: leave out), with signed distances of its own, e.g. the edges deep inside a bone's
-  // own projected silhouette (RegistrationSettings::inner_edge_margin_px). Throws InputError for
-  // a mask of another size or type.
-  EdgeMap withoutEdgesIn(const cv::Mat& mask) const;
+  // A copy without the edges whose sub-pixel points fall on `mask` (CV_8U; non-zero: leave out),
+  // whose top-left pixel is the map's pixel `origin` (the part of it outside the map is
+  // ignored), e.g. the edges deep inside a bone's own projected silhouette
+  // (RegistrationSettings::inner_edge_margin_px). The copy has signed distances of its own, and
+  // keeps those it works out only within kMaskedWindowMarginPx of the mask: it is made to be
+  // sampled near the mask, and a map-sized store, filled for each bone and outer iteration,
+  // cost more than the registration's own use of it. Elsewhere its distances are right, only
+  // worked out again at each sample. Throws InputError for a mask that is not CV_8U.
+  EdgeMap withoutEdgesIn(const cv::Mat& mask, cv::Point origin = cv::Point()) const;
 
   const geometry::XrayCamera& camera() const { return camera_; }
   const cv::Mat& edges() const { return edges_; }  // CV_8U, 255 on edges
@@ -110,6 +115,8 @@ class EdgeMap {
 
  private:
   static constexpr int kCellPx = 4;  // of the grid the edge points are bucketed in
+  // How far around its mask a copy from withoutEdgesIn keeps the distances it works out.
+  static constexpr int kMaskedWindowMarginPx = 16;
   // distance_'s value where not yet worked out: finite, unlike NaN, so that builds with
   // -ffinite-math-only still see it (distances lie within +-max_distance_px).
   static constexpr float kNotWorkedOut = std::numeric_limits<float>::max();
@@ -125,8 +132,8 @@ class EdgeMap {
     double band = 0.0;                     // line_distance_band_px
 
     // Index of the point nearest `pixel`; -1 when none lies within max_distance (some farther
-    // ones may be returned).
-    int find(const Eigen::Vector2d& pixel, double max_distance) const;
+    // ones may be returned). `left_out`: null, or a flag per point (non-zero: not a candidate).
+    int find(const Eigen::Vector2d& pixel, double max_distance, const std::uint8_t* left_out) const;
   };
 
   // The points bucketed by grid cell for a map of `size`.
@@ -136,9 +143,15 @@ class EdgeMap {
   // `edge_pixels`: edges_'s non-zero pixels in row-major order.
   void findNearestEdges(const cv::Mat& gx, const cv::Mat& gy, const cv::Mat& magnitude,
                         const std::vector<cv::Point>& edge_pixels, double band);
-  // Works out the signed distance at pixel (u, v) and keeps it in distance_; `nearest_point`:
-  // the index of its nearest edge point when already found, else -1.
+  // The distance kept in distance_ at pixel (u, v) of the map; kNotWorkedOut if none.
+  float keptDistance(int u, int v) const;
+  // The signed distance at pixel (u, v) of the map, from distance_ when worked out there, else
+  // worked out (and kept when (u, v) lies in distance_window_).
+  float distanceAt(int u, int v) const;
+  // Works out the signed distance at pixel (u, v); `nearest_point`: the index of its nearest
+  // edge point when already found, else -1.
   float computeDistance(int u, int v, int nearest_point = -1) const;
+  const std::uint8_t* leftOut() const { return left_out_ ? left_out_->data() : nullptr; }
 
   geometry::XrayCamera camera_;
   cv::Rect roi_;
@@ -146,8 +159,14 @@ class EdgeMap {
   double max_distance_ = 0.0;
   cv::Mat grey_;
   cv::Mat edges_;
-  cv::Mat distance_;                             // CV_32F; kNotWorkedOut where not yet
-  std::shared_ptr<const NearestEdges> nearest_;  // null: no edges (distance_ is all max)
+  // CV_32F over distance_window_ (the whole map, but for a copy from withoutEdgesIn);
+  // kNotWorkedOut where not yet.
+  cv::Mat distance_;
+  cv::Rect distance_window_;
+  std::shared_ptr<const NearestEdges> nearest_;  // null: no edges (every distance is max)
+  // Null, or a flag per nearest_ point: left out of this map (withoutEdgesIn). The points are
+  // flagged rather than bucketed again, which cost as much as the rest of the copy.
+  std::shared_ptr<const std::vector<std::uint8_t>> left_out_;
   cv::Mat edge_points_;  // CV_32FC2: sub-pixel edge position at each edge pixel
 };
 

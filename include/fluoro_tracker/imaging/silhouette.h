@@ -20,6 +20,13 @@ struct ContourPoint {
   Eigen::Vector2d normal;       // unit, in the image, pointing out of the silhouette
 };
 
+// A silhouette mask over part of a view: `mask` (CV_8U, 255 inside the silhouette) covers the
+// view's pixels from `origin` on.
+struct SilhouetteCrop {
+  cv::Mat mask;
+  cv::Point origin;
+};
+
 // Outer contour of a closed mesh seen by an X-ray view. What can be precomputed per mesh is:
 // its edges with their two faces (for contour generators: edges between a face turned toward
 // the source and one turned away). At a pose, the contour generators are projected and sampled,
@@ -35,10 +42,12 @@ class SilhouetteModel {
   const Eigen::AlignedBox3d& bounds() const { return bounds_; }
 
   // Contour samples about every `spacing_px` pixels of `camera`. Points outside the camera's
-  // image are dropped.
+  // image are dropped. `crop`, if given, receives the silhouette mask the samples were tested
+  // against: the same pixels as mask(), over the silhouette's bounds and 3 pixels around them
+  // (clipped to the image; empty when the silhouette is outside it).
   std::vector<ContourPoint> contour(const geometry::XrayCamera& camera,
-                                    const geometry::Pose& camera_from_mesh,
-                                    double spacing_px = 1.0) const;
+                                    const geometry::Pose& camera_from_mesh, double spacing_px = 1.0,
+                                    SilhouetteCrop* crop = nullptr) const;
 
   // Silhouette mask (CV_8U, camera-sized, 255 where the ray through the pixel's sample point,
   // offset Renderer::kSampleOffsetPx from its centre, crosses the mesh): the same pixels as

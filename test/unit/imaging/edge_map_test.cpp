@@ -293,5 +293,57 @@ TEST(EdgeMap, EdgesOnAMaskAreLeftOutOfACopy) {
   EXPECT_GT(std::abs(d), 5.0);
   ASSERT_TRUE(map.sample(100.0 - kDiscRadius, 80.0, &d, &du, &dv));
   EXPECT_LT(std::abs(d), 0.3);
-  EXPECT_THROW_WITH(map.withoutEdgesIn(cv::Mat(10, 10, CV_8U, cv::Scalar(0))), "map's size");
+  EXPECT_THROW_WITH(map.withoutEdgesIn(cv::Mat(10, 10, CV_32F, cv::Scalar(0))), "CV_8U");
+}
+
+TEST(EdgeMap, AMaskOverPartOfTheMapLeavesOutTheSameEdgesAsAMapSizedOne) {
+  // The ring and a square: the mask, a disc over the ring's lower right, cuts both.
+  cv::Mat image = disc(true);
+  cv::rectangle(image, cv::Rect(150, 20, 30, 30), cv::Scalar(120), cv::FILLED);
+  const imaging::EdgeMapSettings settings;
+  const EdgeMap map(image, kCamera, settings);
+  const cv::Point origin(95, 45);
+  cv::Mat crop(70, 90, CV_8U, cv::Scalar(0));  // reaches past the map's right edge
+  cv::circle(crop, cv::Point(40, 30), 28, cv::Scalar(255), cv::FILLED);
+  cv::Mat whole(map.edges().size(), CV_8U, cv::Scalar(0));
+  const cv::Rect on_map = cv::Rect(origin, crop.size()) & cv::Rect(cv::Point(), whole.size());
+  crop(on_map - origin).copyTo(whole(on_map));
+  const EdgeMap from_crop = map.withoutEdgesIn(crop, origin);
+  const EdgeMap from_whole = map.withoutEdgesIn(whole);
+  EXPECT_EQ(cv::countNonZero(from_crop.edges() != from_whole.edges()), 0);
+  EXPECT_LT(cv::countNonZero(from_crop.edges()), cv::countNonZero(map.edges()));
+  // The edge points left: those whose sub-pixel point does not round onto the mask.
+  std::vector<Eigen::Vector2d> kept;
+  for (int v = 0; v < map.edges().rows; ++v) {
+    for (int u = 0; u < map.edges().cols; ++u) {
+      if (map.edges().at<std::uint8_t>(v, u) == 0) continue;
+      const Eigen::Vector2d p = map.edgePoint(u, v);
+      if (whole.at<std::uint8_t>(static_cast<int>(std::floor(p.y() + 0.5)),
+                                 static_cast<int>(std::floor(p.x() + 0.5))) == 0) {
+        kept.push_back(p);
+      }
+    }
+  }
+  // Every pixel, in the window the crop's copy keeps distances in and outside it: the same
+  // distance as the map-sized mask's copy, twice (worked out, then kept), and the distance to
+  // the nearest point left where that is a point distance.
+  int checked = 0;
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int v = 0; v < map.edges().rows; ++v) {
+      for (int u = 0; u < map.edges().cols; ++u) {
+        double d = 0.0, du = 0.0, dv = 0.0, expected = 0.0;
+        ASSERT_TRUE(from_crop.sample(u, v, &d, &du, &dv));
+        ASSERT_TRUE(from_whole.sample(u, v, &expected, &du, &dv));
+        ASSERT_EQ(d, expected) << "pixel " << u << ", " << v;
+        if (pass == 1 || (u % 3 != 0) || (v % 3 != 0)) continue;
+        double nearest = std::numeric_limits<double>::infinity();
+        for (const auto& p : kept) nearest = std::min(nearest, (p - Eigen::Vector2d(u, v)).norm());
+        if (nearest >= 2.0 * settings.line_distance_band_px && nearest < settings.max_distance_px) {
+          EXPECT_NEAR(std::abs(d), nearest, 1e-4) << "pixel " << u << ", " << v;
+          ++checked;
+        }
+      }
+    }
+  }
+  EXPECT_GT(checked, 1000);
 }
