@@ -217,6 +217,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "tracking_scales",
                      "tracking_retry",
                      "tracking_retry_inlier_drop",
+                     "tracking_inner_edge_margin_px",
                      "tracking_retry_min_inlier_gain",
                      "tracking_prediction",
                      "solver_iterations",
@@ -276,6 +277,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("tracking_scales", &r.tracking_scales);
   section.read("tracking_retry", &r.tracking_retry);
   section.read("tracking_retry_inlier_drop", &r.tracking_retry_inlier_drop);
+  section.read("tracking_inner_edge_margin_px", &r.tracking_inner_edge_margin_px);
   section.read("tracking_retry_min_inlier_gain", &r.tracking_retry_min_inlier_gain);
   std::string tracking_prediction = registration::trackingPredictionName(r.tracking_prediction);
   section.read("tracking_prediction", &tracking_prediction);

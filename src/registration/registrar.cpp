@@ -608,8 +608,11 @@ void RegistrationSettings::validate() const {
         "outer_iterations >= 1, solver_iterations >= 1, continued_outer_iterations >= 0, "
         "abandon_cost_ratio > 0, abandon_deviation_excess > 0 and start_deviation_excess > 0");
   }
-  if (!(std::isfinite(inner_edge_margin_px) && inner_edge_margin_px >= 0.0)) {
-    throw InputError("registration: inner_edge_margin_px must be finite and >= 0");
+  if (!(std::isfinite(inner_edge_margin_px) && inner_edge_margin_px >= 0.0) ||
+      !(std::isfinite(tracking_inner_edge_margin_px) && tracking_inner_edge_margin_px >= 0.0)) {
+    throw InputError(
+        "registration: inner_edge_margin_px and tracking_inner_edge_margin_px must be finite and "
+        ">= 0");
   }
   if (!(tracking_retry_inlier_drop >= 0.0 && tracking_retry_inlier_drop <= 1.0) ||
       !(tracking_retry_min_inlier_gain >= 0.0)) {

@@ -36,9 +36,17 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
     }
   }
   continuing_registrar_ = registrar_;
+  retrying_registrar_ = registrar_;
   const RegistrationSettings& settings = registrar_->settings();
+  if (settings.tracking_inner_edge_margin_px != settings.inner_edge_margin_px) {
+    RegistrationSettings retrying = settings;
+    retrying.inner_edge_margin_px = settings.tracking_inner_edge_margin_px;
+    retrying_registrar_ =
+        std::make_shared<const Registrar>(registrar_->bones(), retrying, registrar_->joints());
+  }
   if (settings.mirror_check.enabled || settings.tracking_scales != settings.scales ||
-      settings.depth_retry.enabled || settings.reflection_retry.enabled) {
+      settings.depth_retry.enabled || settings.reflection_retry.enabled ||
+      settings.tracking_inner_edge_margin_px != settings.inner_edge_margin_px) {
     RegistrationSettings continuing = settings;
     // A continued frame starts near its answer; a lost one is searched (see track()).
     continuing.depth_retry.enabled = false;
@@ -59,6 +67,7 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
           std::min(mirror.max_difference_deg, mirror.tracking_turn_max_difference_deg);
     }
     continuing.scales = settings.tracking_scales;
+    continuing.inner_edge_margin_px = settings.tracking_inner_edge_margin_px;
     continuing_registrar_ =
         std::make_shared<const Registrar>(registrar_->bones(), continuing, registrar_->joints());
   }
@@ -223,13 +232,13 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
     if (registrar_->settings().threads > 1) {
       parallelFor(starts.size(), registrar_->settings().threads, [&](std::size_t k) {
         try {
-          retries[k] = registrar_->solve(views, starts[k], loaded, priors);
+          retries[k] = retrying_registrar_->solve(views, starts[k], loaded, priors);
         } catch (const std::exception&) {
         }
       });
     }
     for (std::size_t k = 0; k < starts.size(); ++k) {
-      if (!retries[k]) retries[k] = registrar_->solve(views, starts[k], loaded, priors);
+      if (!retries[k]) retries[k] = retrying_registrar_->solve(views, starts[k], loaded, priors);
       RegistrationResult& retry = *retries[k];
       const auto rank = resultRank(retry, quality);
       if (rank < best_rank && (more_doubt || fitsClearlyBetter(retry, rank.first, continued,

@@ -88,6 +88,9 @@ class Tracker {
   std::shared_ptr<const Registrar> registrar_;
   // The same registrar without the mirror check, for frames started from registered poses.
   std::shared_ptr<const Registrar> continuing_registrar_;
+  // The full schedule for such a frame's retries: registrar_ with the tracking inner-edge
+  // margin (RegistrationSettings::tracking_inner_edge_margin_px), as they start near too.
+  std::shared_ptr<const Registrar> retrying_registrar_;
   std::shared_ptr<const PoseSearch> search_;
   bool recovering_ = false;               // a bone was lost: search the next frames
   std::vector<geometry::Pose> poses_;     // last good pose per bone

@@ -352,6 +352,7 @@ registration:
   tracking_retry_inlier_drop: 0.12
   tracking_retry_min_inlier_gain: 0.03
   inner_edge_margin_px: 2.5
+  tracking_inner_edge_margin_px: 3.5
   tracking_prediction: constant_velocity
   robust_scale_px: 3.0
   robust_scale_final_px: 1.5
@@ -417,6 +418,7 @@ registration:
   EXPECT_DOUBLE_EQ(c.registration.tracking_retry_inlier_drop, 0.12);
   EXPECT_DOUBLE_EQ(c.registration.tracking_retry_min_inlier_gain, 0.03);
   EXPECT_DOUBLE_EQ(c.registration.inner_edge_margin_px, 2.5);
+  EXPECT_DOUBLE_EQ(c.registration.tracking_inner_edge_margin_px, 3.5);
   EXPECT_EQ(c.registration.tracking_prediction,
             registration::RegistrationSettings::TrackingPrediction::kConstantVelocity);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, 3.0);
@@ -472,7 +474,9 @@ registration:
   expectRegistrationRejected("{mirror_check: {start_deviation_excess: .nan}}",
                              "start_deviation_excess > 0");
   expectRegistrationRejected("{inner_edge_margin_px: -1}",
-                             "inner_edge_margin_px must be finite and >= 0");
+                             "inner_edge_margin_px and tracking_inner_edge_margin_px must be");
+  expectRegistrationRejected("{tracking_inner_edge_margin_px: .inf}",
+                             "inner_edge_margin_px and tracking_inner_edge_margin_px must be");
   expectRegistrationRejected("{tracking_retry_inlier_drop: -0.1}",
                              "tracking_retry_inlier_drop must be in [0, 1]");
   expectRegistrationRejected("{tracking_retry_min_inlier_gain: .nan}",

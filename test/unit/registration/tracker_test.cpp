@@ -353,9 +353,11 @@ TEST(Tracker, RetriesAFrameWhoseBoneFitsWorseThanItsRecentFrames) {
 // close (inner_edge_margin_px) keeps the tracked tray within the criteria.
 TEST(Tracker, InnerEdgeMarginKeepsATitaniumTrayOffItsOwnInnerEdges) {
   const VariantFrames variant("kneel_titanium_tray", 20);
+  // The margin as tracked frames have it by default (tracking_inner_edge_margin_px), and none.
   const auto successes = [&](double margin_px) {
     registration::RegistrationSettings settings;
-    settings.inner_edge_margin_px = margin_px;
+    EXPECT_EQ(settings.inner_edge_margin_px, 0.0);
+    if (margin_px == 0.0) settings.tracking_inner_edge_margin_px = 0.0;
     registration::Tracker tracker(test_support::simulatedKneeRegistrar(variant.simulator, settings),
                                   {variant.frames[0].femur, variant.frames[0].tibia});
     int count = 0;
