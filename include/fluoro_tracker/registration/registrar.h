@@ -244,12 +244,12 @@ struct RegistrationSettings {
   double tracking_retry_inlier_drop = 0.08;
   double tracking_retry_min_inlier_gain = 0.05;
   // inner_edge_margin_px for a tracked frame registered from the previous frame's result (the
-  // frames above, not their retries). Such a frame starts within a pixel or two of its outlines,
+  // frames above) and for its retries. Such a frame starts within a pixel or two of its outlines,
   // where a bone's own inner edges only mislead it (a titanium tray's rim and pocket). From a
   // crude start they are evidence: a tray's far rim, a few pixels inside its outline when the
   // plateau is near edge-on, tells its turn and tilt, and leaving it out lost frames (crude
-  // starts on poor images, seed 3: 83 -> 76 %), so inner_edge_margin_px stays 0. The tracker's
-  // retries of such a frame start near too, and take this margin as well. Measured with 2 here
+  // starts on poor images, seed 3: 83 -> 76 %), so inner_edge_margin_px stays 0 (first frames,
+  // searches, single-frame registration). The retries start near too. Measured with 2 here
   // (README "Tracking quality"): kneel_titanium_tray 11 -> 60 of 60 frames, and the 92 tracked
   // robustness trials 5349 -> 5353 of 5400.
   double tracking_inner_edge_margin_px = 2.0;
