@@ -38,7 +38,9 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
   continuing_registrar_ = registrar_;
   retrying_registrar_ = registrar_;
   const RegistrationSettings& settings = registrar_->settings();
-  if (settings.tracking_inner_edge_margin_px != settings.inner_edge_margin_px) {
+  const bool tracking_margin_differs =
+      settings.tracking_inner_edge_margin_px != settings.inner_edge_margin_px;
+  if (tracking_margin_differs) {
     RegistrationSettings retrying = settings;
     retrying.inner_edge_margin_px = settings.tracking_inner_edge_margin_px;
     retrying_registrar_ =
@@ -46,7 +48,7 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
   }
   if (settings.mirror_check.enabled || settings.tracking_scales != settings.scales ||
       settings.depth_retry.enabled || settings.reflection_retry.enabled ||
-      settings.tracking_inner_edge_margin_px != settings.inner_edge_margin_px) {
+      tracking_margin_differs) {
     RegistrationSettings continuing = settings;
     // A continued frame starts near its answer; a lost one is searched (see track()).
     continuing.depth_retry.enabled = false;
