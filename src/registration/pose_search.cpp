@@ -181,6 +181,9 @@ void PoseSearchSettings::validate() const {
   if (matches_per_bone < 1 || refined_per_bone < 1) {
     throw InputError("registration search: matches_per_bone and refined_per_bone must be >= 1");
   }
+  if (envelope_extra_refined < 0) {
+    throw InputError("registration search: envelope_extra_refined must be >= 0");
+  }
   if (wide_refined_per_bone < 0 || !(wide_screening_px >= 1.0)) {
     throw InputError(
         "registration search: wide_refined_per_bone must be >= 0 and wide_screening_px >= 1");
@@ -356,7 +359,11 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
 
   // Screens starts on the coarse edge map and refines the best few, one bone at a time.
   std::vector<std::vector<Hypothesis>> hypotheses(bones);
-  const auto refineBest = [&](std::size_t b, std::vector<geometry::Pose> starts) {
+  const double suspect_fraction = registrar_->settings().quality.suspect_inlier_fraction;
+  // `extra_refined`: this many more of the best-screened starts are refined, and kept only
+  // where they fit (suspect_inlier_fraction): ill-fitting ones would only crowd the finalists.
+  const auto refineBest = [&](std::size_t b, std::vector<geometry::Pose> starts,
+                              int extra_refined = 0) {
     std::vector<std::pair<double, geometry::Pose>> screened;
     std::vector<std::pair<double, geometry::Pose>> screened_wide;
     for (const geometry::Pose& s : starts) {
@@ -382,6 +389,9 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
       }
     };
     takeBest(&screened, settings_.refined_per_bone);
+    const std::size_t first_extra = refined_starts.size();
+    takeBest(&screened, extra_refined);
+    const std::size_t end_extra = refined_starts.size();
     takeBest(&screened_wide, settings_.wide_refined_per_bone);
     // Each start is refined on its own, so threads may share them out; the hypotheses are then
     // merged in the starts' order, as one thread would.
@@ -393,15 +403,16 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
         // a start behind the source or outside the views: not a hypothesis
       }
     });
-    for (std::optional<RegistrationResult>& result : results) {
-      if (!result) continue;
-      RegistrationResult refined = std::move(*result);
+    for (std::size_t k = 0; k < results.size(); ++k) {
+      if (!results[k]) continue;
+      RegistrationResult refined = std::move(*results[k]);
       ++found.hypotheses;
       // A refinement stopped for travelling too far from its start (diverged) still returns the
       // last pose within reach, measured like any other: a start 100 mm off along the beam (a
       // region's size misjudged by 10 %) can reach the implant's true pose only just outside.
       if (!geometry::isValidPose(refined.poses[0])) continue;
       const Hypothesis h{refined.poses[0], refined.quality[0].contour_inlier_fraction};
+      if (k >= first_extra && k < end_extra && h.support < suspect_fraction) continue;
       auto same =
           std::find_if(hypotheses[b].begin(), hypotheses[b].end(),
                        [&](const Hypothesis& o) { return isSameHypothesis(o.pose, h.pose); });
@@ -547,11 +558,10 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
     for (const bool child_missing : {true, false}) {
       const std::size_t missing = child_missing ? joint.child : joint.parent;
       const std::size_t known = child_missing ? joint.parent : joint.child;
-      const double threshold = registrar_->settings().quality.suspect_inlier_fraction;
       if (hypotheses[known].empty()) continue;
       std::vector<geometry::Pose> starts;
       for (const Hypothesis& h : hypotheses[known]) {
-        if (h.support < threshold) continue;
+        if (h.support < suspect_fraction) continue;
         for (const geometry::Pose& child_in_parent : envelope_[j]) {
           starts.push_back(child_missing ? h.pose * child_in_parent
                                          : h.pose * child_in_parent.inverse());
@@ -566,7 +576,13 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
           starts.push_back(jointPartner(joint, h.pose, k, child_missing));
         }
       }
-      refineBest(missing, starts);
+      // A bone that no hypothesis fits yet (merged with its neighbour's silhouette, whose
+      // envelope starts a wrong flexion can outscore: the femoral component's round condyles
+      // stay on their edges as it turns about them) has only these starts to be found from.
+      const bool found_poorly =
+          std::none_of(hypotheses[missing].begin(), hypotheses[missing].end(),
+                       [&](const Hypothesis& h) { return h.support >= suspect_fraction; });
+      refineBest(missing, starts, found_poorly ? settings_.envelope_extra_refined : 0);
     }
   }
   for (std::size_t b = 0; b < bones; ++b) {

@@ -303,6 +303,7 @@ struct Perturbation {
   double rotation_deg = 3.0;
   bool crude = false;   // chapter 4's per-bone crude guesses instead (perturbCrude)
   bool search = false;  // no guess at all: automatic initialisation (registration::PoseSearch)
+  registration::PoseSearchSettings search_settings;
 };
 
 // Which simulated images: "good" (1024x1024, the simulator's defaults) or "poor" (768x768,
@@ -427,7 +428,8 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
     std::vector<std::unique_ptr<registration::PoseSearch>> searches;
     if (perturbation.search) {
       for (const auto& registrar : registrars) {
-        searches.push_back(std::make_unique<registration::PoseSearch>(registrar));
+        searches.push_back(
+            std::make_unique<registration::PoseSearch>(registrar, perturbation.search_settings));
       }
     }
     // Each condition's frames of this trial in order, as the tracker would see them: the
@@ -586,6 +588,7 @@ registration::JointModel kneelKnee(const constraints::LigamentSettings& ligament
 
 void runKneel(const std::string& dir, int starts, std::uint64_t seed,
               const registration::RegistrationSettings& settings, bool search,
+              const registration::PoseSearchSettings& search_settings,
               const std::vector<Condition>& conditions,
               const constraints::LigamentSettings& ligaments) {
   const auto calibration = io::readJointTrackCalibration(dir + "/calibration.txt");
@@ -620,7 +623,7 @@ void runKneel(const std::string& dir, int starts, std::uint64_t seed,
     const auto search_registrar = std::make_shared<const registration::Registrar>(
         bones, settings,
         std::vector<registration::JointModel>{kneelKnee(constraints::LigamentSettings())});
-    const registration::PoseSearch pose_search(search_registrar);
+    const registration::PoseSearch pose_search(search_registrar, search_settings);
     std::cout << "real JointTrack Kneel frames, automatic initialisation (no guess):\n";
     int within = 0;
     for (const KneelFrame& frame : frames) {
@@ -892,6 +895,11 @@ int main(int argc, char** argv) {
       "standard (chapter 3: +-2 mm / +-3 mm / +-3 deg starts) or crude (chapter 4's crude guesses, "
       "coarse-to-fine scales 0.25 0.5 1 unless --scales is given) or search (no guess: "
       "automatic initialisation)")(
+      "envelope-extra-refined",
+      po::value(&perturbation.search_settings.envelope_extra_refined)
+          ->default_value(perturbation.search_settings.envelope_extra_refined),
+      "search: more of a bone's starts through its joint's envelope refined when none of its "
+      "own fits (registration: search: envelope_extra_refined)")(
       "trial-set", po::value(&trial_set)->default_value(trial_set),
       "good (1024x1024) or poor (768x768, noisier, a metal rod across the tibia)")(
       "simulator-config", po::value(&simulator_config),
@@ -1021,7 +1029,8 @@ int main(int argc, char** argv) {
                    perturbation, settings, conditions, contact, ligaments, outputs);
     }
     if (!kneel_dir.empty()) {
-      runKneel(kneel_dir, kneel_starts, seed, settings, perturbation.search, conditions, ligaments);
+      runKneel(kneel_dir, kneel_starts, seed, settings, perturbation.search,
+               perturbation.search_settings, conditions, ligaments);
     }
     return 0;
   } catch (const std::exception& e) {

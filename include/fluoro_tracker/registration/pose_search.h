@@ -43,6 +43,16 @@ struct PoseSearchSettings {
   // three such starts (82.5 %) or a single tolerance of 2 for all (72.5 %) did worse.
   double wide_screening_px = 2.0;
   int wide_refined_per_bone = 2;
+  // ... and this many more of a bone's starts from its neighbour through the joint's envelope
+  // when none of its hypotheses so far reaches QualitySettings::suspect_inlier_fraction: the
+  // femoral component merged with the tray in flexion has no hypothesis of its own, and envelope
+  // starts at a wrong flexion (its round condyles stay on their edges as it turns about them)
+  // outscored the one 5 mm and 5 deg off (22nd of 721). Those refined for it are kept only
+  // where they fit (suspect_inlier_fraction): kept all, their wrong poses crowded the right
+  // combination out of the finalists. Measured with `benchmark --protocol search --trials 4
+  // --frames 10 --conditions contact+ligaments`, seeds 3 / 5 / 7 / 11 and held-out 13 / 17:
+  // 0 148 of 160 and 77 of 80, 10 151 and 78, 20 151 and 78.
+  int envelope_extra_refined = 10;
   // Distances from the source at which a bone may be: a region whose size would put the bone
   // outside them is not that bone (it is a marker, a fragment, or another object).
   double min_depth_m = 0.2;

@@ -593,6 +593,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   const registration::PoseSearchSettings search;
   EXPECT_EQ(c.search.refined_per_bone, search.refined_per_bone);
   EXPECT_EQ(c.search.wide_refined_per_bone, search.wide_refined_per_bone);
+  EXPECT_EQ(c.search.envelope_extra_refined, search.envelope_extra_refined);
   EXPECT_DOUBLE_EQ(c.search.wide_screening_px, search.wide_screening_px);
   EXPECT_DOUBLE_EQ(c.search.screening_scale, search.screening_scale);
   EXPECT_DOUBLE_EQ(c.search.edge_high_fraction, search.edge_high_fraction);
@@ -606,15 +607,17 @@ bones:
   - {name: femur, mesh: f.stl}
 registration:
   search: {refined_per_bone: 3, wide_refined_per_bone: 0, wide_screening_px: 3.0,
-           edge_high_fraction: 0.2, retry_edge_high_fraction: 0}
+           envelope_extra_refined: 5, edge_high_fraction: 0.2, retry_edge_high_fraction: 0}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_EQ(c.search.refined_per_bone, 3);
   EXPECT_EQ(c.search.wide_refined_per_bone, 0);
+  EXPECT_EQ(c.search.envelope_extra_refined, 5);
   EXPECT_DOUBLE_EQ(c.search.wide_screening_px, 3.0);
   EXPECT_DOUBLE_EQ(c.search.edge_high_fraction, 0.2);
   EXPECT_DOUBLE_EQ(c.search.retry_edge_high_fraction, 0.0);
   expectRegistrationRejected("{search: {wide_screening_px: 0.5}}", "wide_screening_px >= 1");
+  expectRegistrationRejected("{search: {envelope_extra_refined: -1}}", "envelope_extra_refined");
   expectRegistrationRejected("{search: {edge_high_fraction: 0}}", "edge_high_fraction");
   expectRegistrationRejected("{search: {retry_edge_high_fraction: 1.5}}",
                              "retry_edge_high_fraction");
