@@ -51,7 +51,8 @@ struct PoseSearchSettings {
   // where they fit (suspect_inlier_fraction): kept all, their wrong poses crowded the right
   // combination out of the finalists. Measured with `benchmark --protocol search --trials 4
   // --frames 10 --conditions contact+ligaments`, seeds 3 / 5 / 7 / 11 and held-out 13 / 17:
-  // 0 148 of 160 and 77 of 80, 10 151 and 78, 20 151 and 78.
+  // 0 148 of 160 and 77 of 80, 10 151 and 78, 20 151 and 78; held-out 19 / 23, 66 and 65 of 80
+  // with 0 and 10 (a turn reflection flipped).
   int envelope_extra_refined = 10;
   // Distances from the source at which a bone may be: a region whose size would put the bone
   // outside them is not that bone (it is a marker, a fragment, or another object).
