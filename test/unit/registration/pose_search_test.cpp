@@ -536,8 +536,8 @@ TEST(PoseSearch, ARetryWithALowerEdgeThresholdFindsABrightFemoralComponentInDeep
 // hypothesis of its own fits, and the envelope's starts from the tray at a wrong flexion
 // outscore the right one, since the component's round condyles stay on their edges as it turns
 // about them (the benchmark's no-guess trials, seed 3, trial 3, frame 4). Frames like this one
-// are found or not by a narrow margin: of eight noise draws, the default found two and the
-// search without the extra starts two, one of them this frame's.
+// are found or not by a narrow margin: of eight noise draws (7-14), the default found two (this
+// one, 8, among them) and the search without the extra starts two (7 and 9).
 TEST(PoseSearch, MoreEnvelopeStartsFindAFemoralComponentMergedWithTheTray) {
   sim::TrialSimulatorSettings s;
   s.motion.frames = 10;
