@@ -355,6 +355,36 @@ void removeInsignificantEdges(const cv::Mat& magnitude, double high, double low,
   pixels->resize(kept);
 }
 
+// How far either side of an outline its two sides' greys are read (map pixels): beyond the
+// detector's and the edge map's blur, within an implant's thinnest part. An edge's two sides
+// are both read at the inner reach (which of them is the implant's is not known).
+constexpr double kInsideReachPx = 2.0;
+constexpr double kOutsideReachPx = 3.0;
+
+// Leaves out the edges beside clipped grey (EdgeMapSettings::clipped_grey_margin).
+void removeEdgesBesideClippedGrey(const ClippedGrey& clipped, const cv::Mat& gx, const cv::Mat& gy,
+                                  cv::Mat* edges, std::vector<cv::Point>* pixels) {
+  std::size_t kept = 0;
+  for (const cv::Point& p : *pixels) {
+    Eigen::Vector2d n(gx.at<float>(p), gy.at<float>(p));  // toward the brighter side
+    const double norm = n.norm();
+    bool beside = false;
+    if (norm > 0.0) {
+      n /= norm;
+      const Eigen::Vector2d pixel(p.x, p.y);
+      const Eigen::Vector2d darker = pixel - kInsideReachPx * n;
+      const Eigen::Vector2d brighter = pixel + kInsideReachPx * n;
+      beside = clipped.beside(darker, brighter) || clipped.beside(brighter, darker);
+    }
+    if (beside) {
+      edges->at<std::uint8_t>(p) = 0;
+    } else {
+      (*pixels)[kept++] = p;
+    }
+  }
+  pixels->resize(kept);
+}
+
 }  // namespace
 
 void EdgeMapSettings::validate() const {
@@ -366,6 +396,9 @@ void EdgeMapSettings::validate() const {
   if (!(blur_sigma_px >= 0.0)) throw InputError("edge map: blur_sigma_px must be >= 0");
   if (!(line_distance_band_px > 0.0)) {
     throw InputError("edge map: line_distance_band_px must be > 0");
+  }
+  if (!(clipped_grey_margin >= 0.0 && clipped_grey_margin < 1.0)) {
+    throw InputError("edge map: clipped_grey_margin must be in [0, 1)");
   }
   if (!(min_edge_significance >= 0.0) ||
       !(edge_significance_low_ratio > 0.0 && edge_significance_low_ratio <= 1.0)) {
@@ -445,7 +478,16 @@ EdgeMap::EdgeMap(const cv::Mat& image, const geometry::XrayCamera& camera, const
                              s.edge_significance_low_ratio * s.min_edge_significance, &edges_,
                              &edge_pixels);
   }
+  clipped_grey_ = ClippedGrey(region, hi - lo, s.clipped_grey_margin);
+  if (!clipped_grey_.empty()) {
+    removeEdgesBesideClippedGrey(clipped_grey_, gx, gy, &edges_, &edge_pixels);
+  }
   findNearestEdges(gx, gy, magnitude, edge_pixels, s.line_distance_band_px);
+}
+
+bool EdgeMap::besideClippedGrey(const Eigen::Vector2d& pixel,
+                                const Eigen::Vector2d& outward) const {
+  return clipped_grey_.beside(pixel - kInsideReachPx * outward, pixel + kOutsideReachPx * outward);
 }
 
 void EdgeMap::findNearestEdges(const cv::Mat& gx, const cv::Mat& gy, const cv::Mat& magnitude,

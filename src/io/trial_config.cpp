@@ -368,7 +368,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   edges.allowOnly({"window_low_percentile", "window_high_percentile", "clahe", "clahe_clip_limit",
                    "blur_sigma_px", "canny_low", "canny_high", "auto_high_fraction",
                    "auto_low_ratio", "thresholds_skip_saturated_borders", "min_edge_significance",
-                   "edge_significance_low_ratio", "max_distance_px", "line_distance_band_px"});
+                   "edge_significance_low_ratio", "clipped_grey_margin", "max_distance_px",
+                   "line_distance_band_px"});
   edges.read("window_low_percentile", &r.edges.window_low_percentile);
   edges.read("window_high_percentile", &r.edges.window_high_percentile);
   edges.read("clahe", &r.edges.clahe);
@@ -381,6 +382,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   edges.read("thresholds_skip_saturated_borders", &r.edges.thresholds_skip_saturated_borders);
   edges.read("min_edge_significance", &r.edges.min_edge_significance);
   edges.read("edge_significance_low_ratio", &r.edges.edge_significance_low_ratio);
+  edges.read("clipped_grey_margin", &r.edges.clipped_grey_margin);
   edges.read("max_distance_px", &r.edges.max_distance_px);
   edges.read("line_distance_band_px", &r.edges.line_distance_band_px);
   try {

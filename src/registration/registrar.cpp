@@ -1085,8 +1085,16 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
             const geometry::XrayCamera& camera = maps[v].camera();
             const geometry::Pose camera_from_fixed = camera.worldFromCamera().inverse();
             imaging::SilhouetteCrop silhouette;
-            const auto contour = bones_[b].silhouette->contour(
-                camera, camera_from_fixed * pose, settings_.contour_spacing_px, &silhouette);
+            auto contour = bones_[b].silhouette->contour(camera, camera_from_fixed * pose,
+                                                         settings_.contour_spacing_px, &silhouette);
+            // Where a clipped display hides the outline's edge or moves it, the image says
+            // nothing about the sample (EdgeMapSettings::clipped_grey_margin): left out of the
+            // terms and of the contour the quality figures count.
+            contour.erase(std::remove_if(contour.begin(), contour.end(),
+                                         [&](const imaging::ContourPoint& c) {
+                                           return maps[v].besideClippedGrey(c.pixel, c.normal);
+                                         }),
+                          contour.end());
             if (finest) {
               auto& kept = finest_model_points[b][v];
               kept.clear();

@@ -793,6 +793,11 @@ int main(int argc, char** argv) {
           ->default_value(settings.edges.min_edge_significance),
       "edges: keep chains whose gradient reaches this many local noise standard deviations "
       "(0: off)")(
+      "clipped-grey-margin",
+      po::value(&settings.edges.clipped_grey_margin)
+          ->default_value(settings.edges.clipped_grey_margin),
+      "edges: leave out outline beside grey clipped by the display window, to within this "
+      "fraction of the edge map's grey window (0: off)")(
       "skip-saturated-borders",
       po::value(&settings.edges.thresholds_skip_saturated_borders)
           ->default_value(settings.edges.thresholds_skip_saturated_borders),

@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "fluoro_tracker/geometry/xray_camera.h"
+#include "fluoro_tracker/imaging/clipped_grey.h"
 
 namespace fluoro_tracker {
 namespace imaging {
@@ -48,6 +49,13 @@ struct EdgeMapSettings {
   // the gradient magnitude (robust to the edges crossing it), as for Gaussian noise. 0: off.
   double min_edge_significance = 3.0;
   double edge_significance_low_ratio = 0.6;
+  // Outline beside grey the display window clips (see ClippedGrey): edges with one side on a
+  // plateau at an end of the region's grey and the other within this fraction of the window's
+  // range of the same end are left out, and besideClippedGrey() tells the registration which
+  // contour samples lie where the image cannot show their edge. 0: off. Chosen from 0.1 / 0.15
+  // / 0.2 on the saturated-window and titanium robustness trials (README "Tracking quality"):
+  // 0.15 gained as much on the first but left out more of bright titanium's outline.
+  double clipped_grey_margin = 0.1;
   double max_distance_px = 40.0;  // distances are truncated here (and their gradient is 0)
   // Within this many pixels of an edge the distance is to the edge's sub-pixel tangent line;
   // beyond twice this, to the nearest edge pixel; blended in between.
@@ -93,6 +101,12 @@ class EdgeMap {
   // cost more than the registration's own use of it. Elsewhere its distances are right, only
   // worked out again at each sample. Throws InputError for a mask that is not CV_8U.
   EdgeMap withoutEdgesIn(const cv::Mat& mask, cv::Point origin = cv::Point()) const;
+
+  // Whether an outline at `pixel` (map pixels) whose outward normal is `outward` lies where the
+  // image cannot show its edge: its inside on a plateau of clipped grey and its outside at or
+  // within EdgeMapSettings::clipped_grey_margin of the same end. Always false when the setting
+  // is 0 or the region has no clipped plateau.
+  bool besideClippedGrey(const Eigen::Vector2d& pixel, const Eigen::Vector2d& outward) const;
 
   const geometry::XrayCamera& camera() const { return camera_; }
   const cv::Mat& edges() const { return edges_; }  // CV_8U, 255 on edges
@@ -167,7 +181,8 @@ class EdgeMap {
   // Null, or a flag per nearest_ point: left out of this map (withoutEdgesIn). The points are
   // flagged rather than bucketed again, which cost as much as the rest of the copy.
   std::shared_ptr<const std::vector<std::uint8_t>> left_out_;
-  cv::Mat edge_points_;  // CV_32FC2: sub-pixel edge position at each edge pixel
+  cv::Mat edge_points_;       // CV_32FC2: sub-pixel edge position at each edge pixel
+  ClippedGrey clipped_grey_;  // empty unless clipped_grey_margin > 0 and an end is a plateau
 };
 
 }  // namespace imaging

@@ -1,13 +1,16 @@
 #include "fluoro_tracker/imaging/edge_map.h"
 
+#include <cmath>
 #include <functional>
 #include <limits>
+#include <random>
 #include <thread>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
 
 #include "../test_support.h"
+#include "fluoro_tracker/imaging/detector_model.h"
 
 using namespace fluoro_tracker;
 using imaging::EdgeMap;
@@ -40,6 +43,58 @@ cv::Mat disc(bool bright_implant, int type = CV_8U) {
   }
   cv::Mat out;
   image.convertTo(out, type);
+  return out;
+}
+
+// A metal disc (line integral 6, beyond the display window's end at 3) in tissue whose line
+// integral is `left_tissue` left of u = 100 and `right_tissue` right of it, displayed by the
+// detector model without noise or scatter (blur 0.8 px before the logarithm, as a detector
+// blurs). The disc is clipped to black; tissue near 3 is displayed near black too. `border`:
+// also a band of metal along the image's top, 12 px high (a collimator's blade).
+cv::Mat clippedDisc(double left_tissue, double right_tissue, bool border = false) {
+  cv::Mat line_integral(160, 200, CV_64F);
+  for (int v = 0; v < line_integral.rows; ++v) {
+    for (int u = 0; u < line_integral.cols; ++u) {
+      const double tissue = u < 100 ? left_tissue : right_tissue;
+      double transmitted = 0.0;
+      for (int i = 0; i < 8; ++i) {
+        for (int j = 0; j < 8; ++j) {
+          const double x = u - 0.5 + (i + 0.5) / 8.0 - 100.0;
+          const double y = v - 0.5 + (j + 0.5) / 8.0 - 80.0;
+          const bool metal = x * x + y * y <= kDiscRadius * kDiscRadius || (border && v < 12);
+          transmitted += std::exp(-(metal ? 6.0 : tissue)) / 64.0;
+        }
+      }
+      line_integral.at<double>(v, u) = -std::log(transmitted);
+    }
+  }
+  imaging::DetectorSettings detector;
+  detector.photons_per_pixel = 0.0;
+  detector.scatter_strength = 0.0;
+  detector.window_max_attenuation = 3.0;
+  std::mt19937_64 rng(1);
+  return imaging::formRadiograph(line_integral, detector, &rng);
+}
+
+// The signed distances of the map at the disc's outline on its left (u < 100) or right side,
+// 24 points each, and whether each lies beside clipped grey.
+struct OutlineSamples {
+  std::vector<double> distances;
+  int beside_clipped = 0;
+};
+OutlineSamples outlineSamples(const EdgeMap& map, bool left) {
+  OutlineSamples out;
+  for (int k = 0; k < 24; ++k) {
+    const double a = (left ? M_PI : 0.0) + (-0.4 + 0.8 * k / 23.0) * M_PI;
+    const Eigen::Vector2d normal(std::cos(a), std::sin(a));
+    const Eigen::Vector2d pixel = Eigen::Vector2d(100.0, 80.0) + kDiscRadius * normal;
+    double d = 0.0;
+    double du = 0.0;
+    double dv = 0.0;
+    EXPECT_TRUE(map.sample(pixel.x(), pixel.y(), &d, &du, &dv));
+    out.distances.push_back(d);
+    out.beside_clipped += map.besideClippedGrey(pixel, normal) ? 1 : 0;
+  }
   return out;
 }
 
@@ -258,6 +313,76 @@ TEST(EdgeMap, ACollimatorsBorderDoesNotSetTheThresholds) {
                                            "shows nothing";
 }
 
+// A display window that clips the metal and nearly the tissue beside it (README "Tracking
+// quality", the saturated window): on the left the tissue is displayed within a few grey levels
+// of black, and the edge the map finds there lies outward of the true outline (the blurred
+// intensity crosses the clip before the outline); on the right, bright tissue, it lies on it.
+// With the default margin the left's edges are left out and its outline points are beside
+// clipped grey; the right's are kept and not beside it.
+TEST(EdgeMap, OutlineBesideClippedGreyIsLeftOut) {
+  const cv::Mat image = clippedDisc(2.8, 1.0);
+  ASSERT_EQ(image.at<std::uint8_t>(80, 100), 0);  // the metal is clipped
+  ASSERT_LT(image.at<std::uint8_t>(80, 40), 25);  // the tissue on the left nearly so
+  imaging::EdgeMapSettings off;
+  off.clipped_grey_margin = 0.0;
+  const EdgeMap as_is(image, kCamera, off);
+  const EdgeMap map(image, kCamera, imaging::EdgeMapSettings());
+  ASSERT_GT(imaging::EdgeMapSettings().clipped_grey_margin, 0.0);
+
+  // Without the margin the left's edges lie outward (negative: on the dark side of the edge).
+  const OutlineSamples left_as_is = outlineSamples(as_is, true);
+  double mean = 0.0;
+  for (double d : left_as_is.distances) mean += d / left_as_is.distances.size();
+  EXPECT_LT(mean, -0.4) << "the edge beside near-black tissue is not moved outward";
+  EXPECT_EQ(left_as_is.beside_clipped, 0);
+
+  const OutlineSamples left = outlineSamples(map, true);
+  for (double d : left.distances) EXPECT_GT(std::abs(d), 1.5);
+  EXPECT_EQ(left.beside_clipped, 24);
+  for (const EdgeMap* m : {&as_is, &map}) {
+    const OutlineSamples right = outlineSamples(*m, false);
+    for (double d : right.distances) EXPECT_LT(std::abs(d), 0.5);
+    EXPECT_EQ(right.beside_clipped, 0);
+  }
+}
+
+// What is not a clipped implant: metal whose interior only touches black at scattered pixels
+// (noise), and black that reaches the region's border (a collimator's blade). Outline beside
+// them is kept.
+TEST(EdgeMap, NoisyMetalAndTheFieldsBlackAreNotClippedImplants) {
+  // The disc noisy about grey 8 (sd 8) up to its rim, a sixth of its pixels at 0.
+  cv::Mat noisy = clippedDisc(2.8, 1.0);
+  cv::RNG rng(3);
+  for (int v = 0; v < noisy.rows; ++v) {
+    for (int u = 0; u < noisy.cols; ++u) {
+      if (std::hypot(u - 100.0, v - 80.0) < kDiscRadius - 0.5) {
+        noisy.at<std::uint8_t>(v, u) =
+            static_cast<std::uint8_t>(std::max(0.0, rng.gaussian(8.0) + 8.0));
+      }
+    }
+  }
+  const EdgeMap noisy_map(noisy, kCamera, imaging::EdgeMapSettings());
+  EXPECT_EQ(outlineSamples(noisy_map, true).beside_clipped, 0);
+
+  // A blade along the top: its border with the near-black tissue on the left keeps its edges.
+  const cv::Mat bladed = clippedDisc(2.8, 1.0, true);
+  const EdgeMap map(bladed, kCamera, imaging::EdgeMapSettings());
+  int blade_edges = 0;
+  int kept = 0;
+  for (int u = 5; u < 95; ++u) {
+    double d = 0.0;
+    double du = 0.0;
+    double dv = 0.0;
+    ASSERT_TRUE(map.sample(u, 11.5, &d, &du, &dv));
+    kept += std::abs(d) < 1.5 ? 1 : 0;
+    blade_edges += map.besideClippedGrey(Eigen::Vector2d(u, 11.5), Eigen::Vector2d(0.0, 1.0));
+  }
+  EXPECT_GT(kept, 80);
+  EXPECT_EQ(blade_edges, 0);
+  // The disc, inside the region, is still a clipped implant.
+  EXPECT_EQ(outlineSamples(map, true).beside_clipped, 24);
+}
+
 TEST(EdgeMap, BadImagesNameTheProblem) {
   EXPECT_THROW_WITH(EdgeMap(cv::Mat(), kCamera, imaging::EdgeMapSettings()), "is empty");
   EXPECT_THROW_WITH(EdgeMap(cv::Mat::zeros(100, 100, CV_8U), kCamera, imaging::EdgeMapSettings()),
@@ -267,6 +392,9 @@ TEST(EdgeMap, BadImagesNameTheProblem) {
   imaging::EdgeMapSettings negative;
   negative.min_edge_significance = -1.0;
   EXPECT_THROW_WITH(EdgeMap(disc(false), kCamera, negative), "min_edge_significance");
+  imaging::EdgeMapSettings whole_range;
+  whole_range.clipped_grey_margin = 1.0;
+  EXPECT_THROW_WITH(EdgeMap(disc(false), kCamera, whole_range), "clipped_grey_margin");
 }
 
 // Edges on a mask are left out: a dark disc's outline under the mask no longer exists in the

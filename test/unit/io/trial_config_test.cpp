@@ -363,7 +363,8 @@ registration:
   rendered_edges: {enabled: true, saturation_mm: 2.5}
   edge_offset_min_px: 0.0
   edge_offset_tracking: {enabled: false, frame_sd_px: 0.3, drift_px: 0.05}
-  edges: {clahe: true, canny_high: 60, thresholds_skip_saturated_borders: false}
+  edges: {clahe: true, canny_high: 60, thresholds_skip_saturated_borders: false,
+          clipped_grey_margin: 0.25}
   mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, solver_iterations: 5,
                  continued_outer_iterations: 0,
                  turn_reflection: false, mirror_reflection: false, tilt_reflection: false, max_difference_deg: 30,
@@ -403,6 +404,7 @@ registration:
   EXPECT_EQ(c.registration.depth_retry.shifts_mm, (std::vector<double>{-10.0, 10.0, -25.0}));
   EXPECT_DOUBLE_EQ(c.registration.depth_retry.light_below_inlier_fraction, 0.8);
   EXPECT_FALSE(c.registration.edges.thresholds_skip_saturated_borders);
+  EXPECT_DOUBLE_EQ(c.registration.edges.clipped_grey_margin, 0.25);
   EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_drop, 0.2);
   EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_spread, 2.5);
   EXPECT_EQ(c.registration.quality.relative_inlier_window, 10);
@@ -500,6 +502,8 @@ registration:
                              "relative_inlier_trend_frames must be 0 (off) or >= 3");
   expectRegistrationRejected("{edges: {edge_significance_low_ratio: 1.5}}",
                              "edge_significance_low_ratio in (0, 1]");
+  expectRegistrationRejected("{edges: {clipped_grey_margin: -0.1}}",
+                             "clipped_grey_margin must be in [0, 1)");
 }
 
 TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
@@ -530,6 +534,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.registration.edges.edge_significance_low_ratio,
                    d.edges.edge_significance_low_ratio);
   EXPECT_DOUBLE_EQ(c.registration.edges.line_distance_band_px, d.edges.line_distance_band_px);
+  EXPECT_DOUBLE_EQ(c.registration.edges.clipped_grey_margin, d.edges.clipped_grey_margin);
   EXPECT_EQ(c.registration.edge_offset_model, d.edge_offset_model);
   EXPECT_EQ(c.registration.parameterisation, d.parameterisation);
   EXPECT_EQ(c.registration.tracking_prediction, d.tracking_prediction);
