@@ -320,7 +320,7 @@ TEST(EdgeMap, ACollimatorsBorderDoesNotSetTheThresholds) {
 // With the default margin the left's edges are left out and its outline points are beside
 // clipped grey; the right's are kept and not beside it.
 TEST(EdgeMap, OutlineBesideClippedGreyIsLeftOut) {
-  const cv::Mat image = clippedDisc(2.8, 1.0);
+  const cv::Mat image = clippedDisc(2.85, 1.0);
   ASSERT_EQ(image.at<std::uint8_t>(80, 100), 0);  // the metal is clipped
   ASSERT_LT(image.at<std::uint8_t>(80, 40), 25);  // the tissue on the left nearly so
   imaging::EdgeMapSettings off;
@@ -351,7 +351,7 @@ TEST(EdgeMap, OutlineBesideClippedGreyIsLeftOut) {
 // them is kept.
 TEST(EdgeMap, NoisyMetalAndTheFieldsBlackAreNotClippedImplants) {
   // The disc noisy about grey 8 (sd 8) up to its rim, a sixth of its pixels at 0.
-  cv::Mat noisy = clippedDisc(2.8, 1.0);
+  cv::Mat noisy = clippedDisc(2.85, 1.0);
   cv::RNG rng(3);
   for (int v = 0; v < noisy.rows; ++v) {
     for (int u = 0; u < noisy.cols; ++u) {
@@ -365,7 +365,7 @@ TEST(EdgeMap, NoisyMetalAndTheFieldsBlackAreNotClippedImplants) {
   EXPECT_EQ(outlineSamples(noisy_map, true).beside_clipped, 0);
 
   // A blade along the top: its border with the near-black tissue on the left keeps its edges.
-  const cv::Mat bladed = clippedDisc(2.8, 1.0, true);
+  const cv::Mat bladed = clippedDisc(2.85, 1.0, true);
   const EdgeMap map(bladed, kCamera, imaging::EdgeMapSettings());
   int blade_edges = 0;
   int kept = 0;
