@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <vector>
 
 #include <opencv2/imgproc.hpp>
+
+#include "fluoro_tracker/imaging/border_components.h"
 
 namespace fluoro_tracker {
 namespace imaging {
@@ -17,30 +18,10 @@ constexpr double kAtEnd = 0.5;
 // hold fewer, and cost nothing more).
 constexpr double kMinEndShare = 0.01;
 
-// Per block (`blocks`: the region's block means; `at_end`: those wholly at an end): non-zero
-// where the blocks at the end join a plateau that reaches the region's border, and one block
-// around them.
-cv::Mat fieldBlocks(const cv::Mat& blocks, const cv::Mat& at_end) {
-  cv::Mat labels;
-  cv::Mat stats;
-  cv::Mat centroids;
-  const int count = cv::connectedComponentsWithStats(at_end, labels, stats, centroids, 8, CV_32S);
-  std::vector<std::uint8_t> field(static_cast<std::size_t>(count), 0);
-  for (int c = 1; c < count; ++c) {
-    const int x = stats.at<int>(c, cv::CC_STAT_LEFT);
-    const int y = stats.at<int>(c, cv::CC_STAT_TOP);
-    field[static_cast<std::size_t>(c)] = x == 0 || y == 0 ||
-                                         x + stats.at<int>(c, cv::CC_STAT_WIDTH) == blocks.cols ||
-                                         y + stats.at<int>(c, cv::CC_STAT_HEIGHT) == blocks.rows;
-  }
-  cv::Mat mask = cv::Mat::zeros(blocks.size(), CV_8U);
-  for (int v = 0; v < blocks.rows; ++v) {
-    const int* label = labels.ptr<int>(v);
-    std::uint8_t* out = mask.ptr<std::uint8_t>(v);
-    for (int u = 0; u < blocks.cols; ++u) {
-      if (field[static_cast<std::size_t>(label[u])] != 0) out[u] = 255;
-    }
-  }
+// Per block (`at_end`: the region's blocks wholly at an end): non-zero where they join a plateau
+// that reaches the region's border, and one block around them.
+cv::Mat fieldBlocks(const cv::Mat& at_end) {
+  cv::Mat mask = componentsReachingBorder(at_end);
   cv::dilate(mask, mask, cv::Mat::ones(3, 3, CV_8U));
   return mask;
 }
@@ -66,8 +47,8 @@ ClippedGrey::ClippedGrey(const cv::Mat& region, double range, double margin_frac
     cv::Mat blocks;
     cv::resize(region, blocks, cv::Size(region.cols / kBlockPx, region.rows / kBlockPx), 0.0, 0.0,
                cv::INTER_AREA);
-    if (low_candidate_) low_field_ = fieldBlocks(blocks, blocks <= lo + kAtEnd);
-    if (high_candidate_) high_field_ = fieldBlocks(blocks, blocks >= hi - kAtEnd);
+    if (low_candidate_) low_field_ = fieldBlocks(blocks <= lo + kAtEnd);
+    if (high_candidate_) high_field_ = fieldBlocks(blocks >= hi - kAtEnd);
   }
 }
 

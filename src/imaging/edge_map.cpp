@@ -9,6 +9,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "fluoro_tracker/imaging/border_components.h"
 #include "fluoro_tracker/input_error.h"
 
 namespace fluoro_tracker {
@@ -153,31 +154,7 @@ cv::Mat saturatedAreaBorders(const cv::Mat& grey) {
              cv::INTER_AREA);
   cv::Mat band = cv::Mat::zeros(blocks.size(), CV_8U);
   for (int extreme : {0, 1}) {
-    const cv::Mat mask = extreme == 0 ? (blocks <= 8) : (blocks >= 247);
-    const bool on_border =
-        cv::countNonZero(mask.row(0)) > 0 || cv::countNonZero(mask.row(mask.rows - 1)) > 0 ||
-        cv::countNonZero(mask.col(0)) > 0 || cv::countNonZero(mask.col(mask.cols - 1)) > 0;
-    if (!on_border) continue;
-    cv::Mat labels;
-    cv::Mat stats;
-    cv::Mat centroids;
-    const int count = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
-    std::vector<char> keep(static_cast<std::size_t>(count), 0);
-    for (int c = 1; c < count; ++c) {
-      const int x = stats.at<int>(c, cv::CC_STAT_LEFT);
-      const int y = stats.at<int>(c, cv::CC_STAT_TOP);
-      const int w = stats.at<int>(c, cv::CC_STAT_WIDTH);
-      const int h = stats.at<int>(c, cv::CC_STAT_HEIGHT);
-      const bool touches = x == 0 || y == 0 || x + w == blocks.cols || y + h == blocks.rows;
-      keep[c] = touches && stats.at<int>(c, cv::CC_STAT_AREA) >= 0.005 * blocks.total();
-    }
-    for (int v = 0; v < blocks.rows; ++v) {
-      const int* l = labels.ptr<int>(v);
-      std::uint8_t* out = band.ptr<std::uint8_t>(v);
-      for (int u = 0; u < blocks.cols; ++u) {
-        if (keep[l[u]]) out[u] = 255;
-      }
-    }
+    band |= componentsReachingBorder(extreme == 0 ? (blocks <= 8) : (blocks >= 247), 0.005);
   }
   if (cv::countNonZero(band) == 0) return cv::Mat();  // none: every pixel counts
   cv::dilate(band, band, cv::Mat::ones(5, 5, CV_8U));
