@@ -19,16 +19,13 @@ namespace {
 
 const geometry::XrayCamera kCamera(200, 160, 1000.0, 1000.0, 99.5, 79.5);
 
-// A disc of radius 30.3 px centred at (100, 80), dark on a bright background or the reverse,
-// anti-aliased by 8x8 supersampling of each pixel (pixel centres at integer coordinates).
+// The share of each pixel of the camera's image covered by a disc of radius 30.3 px centred at
+// (100, 80), by 8x8 supersampling (pixel centres at integer coordinates), CV_64F.
 constexpr double kDiscRadius = 30.3;
-cv::Mat disc(bool bright_implant, int type = CV_8U) {
-  const double inside = bright_implant ? 200.0 : 40.0;
-  const double outside = bright_implant ? 40.0 : 200.0;
-  const double unit = type == CV_16U ? 256.0 : 1.0;
-  cv::Mat image(160, 200, CV_64F);
-  for (int v = 0; v < image.rows; ++v) {
-    for (int u = 0; u < image.cols; ++u) {
+cv::Mat discCoverage() {
+  cv::Mat coverage(160, 200, CV_64F);
+  for (int v = 0; v < coverage.rows; ++v) {
+    for (int u = 0; u < coverage.cols; ++u) {
       int covered = 0;
       for (int i = 0; i < 8; ++i) {
         for (int j = 0; j < 8; ++j) {
@@ -37,10 +34,20 @@ cv::Mat disc(bool bright_implant, int type = CV_8U) {
           covered += x * x + y * y <= kDiscRadius * kDiscRadius ? 1 : 0;
         }
       }
-      const double f = covered / 64.0;
-      image.at<double>(v, u) = unit * (f * inside + (1.0 - f) * outside);
+      coverage.at<double>(v, u) = covered / 64.0;
     }
   }
+  return coverage;
+}
+
+// The disc dark on a bright background or the reverse, anti-aliased by its coverage.
+cv::Mat disc(bool bright_implant, int type = CV_8U) {
+  const double inside = bright_implant ? 200.0 : 40.0;
+  const double outside = bright_implant ? 40.0 : 200.0;
+  const double unit = type == CV_16U ? 256.0 : 1.0;
+  cv::Mat image = discCoverage();
+  image.forEach<double>(
+      [&](double& f, const int*) { f = unit * (f * inside + (1.0 - f) * outside); });
   cv::Mat out;
   image.convertTo(out, type);
   return out;
@@ -52,20 +59,14 @@ cv::Mat disc(bool bright_implant, int type = CV_8U) {
 // blurs). The disc is clipped to black; tissue near 3 is displayed near black too. `border`:
 // also a band of metal along the image's top, 12 px high (a collimator's blade).
 cv::Mat clippedDisc(double left_tissue, double right_tissue, bool border = false) {
-  cv::Mat line_integral(160, 200, CV_64F);
+  cv::Mat line_integral = discCoverage();
   for (int v = 0; v < line_integral.rows; ++v) {
     for (int u = 0; u < line_integral.cols; ++u) {
       const double tissue = u < 100 ? left_tissue : right_tissue;
-      double transmitted = 0.0;
-      for (int i = 0; i < 8; ++i) {
-        for (int j = 0; j < 8; ++j) {
-          const double x = u - 0.5 + (i + 0.5) / 8.0 - 100.0;
-          const double y = v - 0.5 + (j + 0.5) / 8.0 - 80.0;
-          const bool metal = x * x + y * y <= kDiscRadius * kDiscRadius || (border && v < 12);
-          transmitted += std::exp(-(metal ? 6.0 : tissue)) / 64.0;
-        }
-      }
-      line_integral.at<double>(v, u) = -std::log(transmitted);
+      // The detector sums what each part of the pixel transmits.
+      const double metal = border && v < 12 ? 1.0 : line_integral.at<double>(v, u);
+      line_integral.at<double>(v, u) =
+          -std::log(metal * std::exp(-6.0) + (1.0 - metal) * std::exp(-tissue));
     }
   }
   imaging::DetectorSettings detector;
