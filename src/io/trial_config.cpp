@@ -221,6 +221,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "tracking_retry_inlier_drop",
                      "tracking_inner_edge_margin_px",
                      "tracking_retry_min_inlier_gain",
+                     "tracking_retry_max_inlier_loss",
                      "tracking_prediction",
                      "solver_iterations",
                      "contour_spacing_px",
@@ -281,6 +282,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("tracking_retry_inlier_drop", &r.tracking_retry_inlier_drop);
   section.read("tracking_inner_edge_margin_px", &r.tracking_inner_edge_margin_px);
   section.read("tracking_retry_min_inlier_gain", &r.tracking_retry_min_inlier_gain);
+  section.read("tracking_retry_max_inlier_loss", &r.tracking_retry_max_inlier_loss);
   std::string tracking_prediction = registration::trackingPredictionName(r.tracking_prediction);
   section.read("tracking_prediction", &tracking_prediction);
   section.read("solver_iterations", &r.solver_iterations);

@@ -620,6 +620,9 @@ void RegistrationSettings::validate() const {
         "registration: tracking_retry_inlier_drop must be in [0, 1] and "
         "tracking_retry_min_inlier_gain >= 0");
   }
+  if (!(tracking_retry_max_inlier_loss >= 0.0 && tracking_retry_max_inlier_loss <= 1.0)) {
+    throw InputError("registration: tracking_retry_max_inlier_loss must be in [0, 1]");
+  }
   if (!(reflection_retry.below_inlier_fraction >= 0.0 &&
         reflection_retry.below_inlier_fraction <= 1.0) ||
       !(reflection_retry.min_inlier_gain >= 0.0)) {

@@ -176,6 +176,20 @@ bool Tracker::fitsClearlyBetter(const RegistrationResult& retry, int retry_troub
   return gain >= registrar_->settings().tracking_retry_min_inlier_gain;
 }
 
+bool Tracker::fitsAboutAsMuch(const RegistrationResult& retry, const RegistrationResult& continued,
+                              const std::vector<std::string>& continued_status) const {
+  const double max_loss = registrar_->settings().tracking_retry_max_inlier_loss;
+  for (std::size_t b = 0; b < retry.quality.size() && b < continued.quality.size(); ++b) {
+    // A lost bone's fraction says nothing (it may have diverged onto clutter).
+    if (b < continued_status.size() && continued_status[b] == "lost") continue;
+    if (retry.quality[b].contour_inlier_fraction <
+        continued.quality[b].contour_inlier_fraction - max_loss) {
+      return false;
+    }
+  }
+  return true;
+}
+
 TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vector<bool>& loaded) {
   if (poses_.empty()) return searchAndReset(views);
   if (recovering_) {
@@ -225,6 +239,7 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
     std::vector<std::vector<geometry::Pose>> starts = {guess};
     if (previous_.size() == poses_.size()) starts.push_back(poses_);
     const RegistrationResult continued = frame.result;
+    const std::vector<std::string> continued_status = frame.status;
     const auto continued_rank = resultRank(continued, quality);
     auto best_rank = continued_rank;
     // As the registrar's depth retry: with threads to spare both starts are solved at once, the
@@ -243,8 +258,10 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
       if (!retries[k]) retries[k] = retrying_registrar_->solve(views, starts[k], loaded, priors);
       RegistrationResult& retry = *retries[k];
       const auto rank = resultRank(retry, quality);
-      if (rank < best_rank && (more_doubt || fitsClearlyBetter(retry, rank.first, continued,
-                                                               continued_rank.first, fits_worse))) {
+      const bool qualifies = more_doubt ? fitsAboutAsMuch(retry, continued, continued_status)
+                                        : fitsClearlyBetter(retry, rank.first, continued,
+                                                            continued_rank.first, fits_worse);
+      if (rank < best_rank && qualifies) {
         best_rank = rank;
         frame.result = std::move(retry);
       }

@@ -243,6 +243,17 @@ struct RegistrationSettings {
   // frames of 60 (none on most trials).
   double tracking_retry_inlier_drop = 0.08;
   double tracking_retry_min_inlier_gain = 0.05;
+  // A retry of a frame in more doubt than the one before clears the doubt only by fitting about
+  // as much of each bone's outline: it replaces the continued result only if no bone's contour
+  // inlier fraction falls more than tracking_retry_max_inlier_loss below the continued one's
+  // (bones lost there aside; 1 turns this off). Why: a status can rise on a knife edge (the tray's
+  // contour RMS 1.005 px against the 1.0 px threshold) while the pose is right, and the full
+  // schedule from the same starts may then land on the tray's tilt reflection, status ok at a lower
+  // RMS but fitting less of the outline (0.67 against 0.75 of its samples). On a titanium tray
+  // (Kneel models, seed 4) tracked from no guess, that retry put the tray 2-3.5 deg off about its
+  // anterior axis for 10 frames, every status ok. Measured on 148 tracked trials from frame 0's
+  // pose and 79 from no guess (README "Registration"): no frame lost, 15 won.
+  double tracking_retry_max_inlier_loss = 0.05;
   // inner_edge_margin_px for a tracked frame registered from the previous frame's result (the
   // frames above) and for its retries. Such a frame starts within a pixel or two of its outlines,
   // where a bone's own inner edges only mislead it (a titanium tray's rim and pocket). From a

@@ -84,6 +84,11 @@ class Tracker {
   bool fitsClearlyBetter(const RegistrationResult& retry, int retry_trouble,
                          const RegistrationResult& continued, int continued_trouble,
                          const std::vector<bool>& fits_worse) const;
+  // Whether a retry of a frame in more doubt fits about as much of every bone's outline as the
+  // continued result: no bone that is not lost there (`continued_status`) with its inlier
+  // fraction lower by more than RegistrationSettings::tracking_retry_max_inlier_loss.
+  bool fitsAboutAsMuch(const RegistrationResult& retry, const RegistrationResult& continued,
+                       const std::vector<std::string>& continued_status) const;
 
   std::shared_ptr<const Registrar> registrar_;
   // The same registrar without the mirror check, for frames started from registered poses.

@@ -351,6 +351,7 @@ registration:
   tracking_retry: false
   tracking_retry_inlier_drop: 0.12
   tracking_retry_min_inlier_gain: 0.03
+  tracking_retry_max_inlier_loss: 0.07
   inner_edge_margin_px: 2.5
   tracking_inner_edge_margin_px: 3.5
   tracking_prediction: constant_velocity
@@ -419,6 +420,7 @@ registration:
   EXPECT_FALSE(c.registration.tracking_retry);
   EXPECT_DOUBLE_EQ(c.registration.tracking_retry_inlier_drop, 0.12);
   EXPECT_DOUBLE_EQ(c.registration.tracking_retry_min_inlier_gain, 0.03);
+  EXPECT_DOUBLE_EQ(c.registration.tracking_retry_max_inlier_loss, 0.07);
   EXPECT_DOUBLE_EQ(c.registration.inner_edge_margin_px, 2.5);
   EXPECT_DOUBLE_EQ(c.registration.tracking_inner_edge_margin_px, 3.5);
   EXPECT_EQ(c.registration.tracking_prediction,
@@ -483,6 +485,8 @@ registration:
                              "tracking_retry_inlier_drop must be in [0, 1]");
   expectRegistrationRejected("{tracking_retry_min_inlier_gain: .nan}",
                              "tracking_retry_min_inlier_gain >= 0");
+  expectRegistrationRejected("{tracking_retry_max_inlier_loss: -0.1}",
+                             "tracking_retry_max_inlier_loss must be in [0, 1]");
   expectRegistrationRejected("{reflection_retry: {below_inlier_fraction: 1.5}}",
                              "reflection_retry needs below_inlier_fraction in [0, 1]");
   expectRegistrationRejected("{reflection_retry: {min_inlier_gain: -0.1}}", "min_inlier_gain >= 0");
