@@ -925,6 +925,10 @@ int main(int argc, char** argv) {
       "ligament springs: residual per degree (and per mm) outside the knee envelope")(
       "covariance", po::bool_switch(&settings.compute_covariance),
       "estimate each bone's covariance (for the quality status's standard-deviation tests)")(
+      "suspect-contour-rms-px",
+      po::value(&settings.quality.suspect_contour_rms_px)
+          ->default_value(settings.quality.suspect_contour_rms_px),
+      "status: suspect above this RMS edge distance of a bone's contour inliers (pixels)")(
       "suspect-out-of-plane-sd-mm",
       po::value(&settings.quality.suspect_out_of_plane_sd_mm)->default_value(0.0),
       "status: suspect above this out-of-plane standard deviation (needs --covariance)")(
