@@ -56,7 +56,10 @@ void writePosesCsv(const std::string& path, const std::vector<PoseRecord>& recor
   const bool with_quality = std::any_of(records.begin(), records.end(),
                                         [](const PoseRecord& r) { return r.quality.has_value(); });
   out << kPosesCsvHeader
-      << (with_quality ? ",contour_inlier_fraction,contour_rms_px,out_of_plane_sd_mm" : "") << "\n";
+      << (with_quality
+              ? ",contour_inlier_fraction,contour_rms_px,out_of_plane_sd_mm,contour_spread_px"
+              : "")
+      << "\n";
   char buffer[512];
   for (const auto& r : records) {
     if (!geometry::isValidPose(r.pose)) {
@@ -72,8 +75,8 @@ void writePosesCsv(const std::string& path, const std::vector<PoseRecord>& recor
     if (with_quality) {
       const registration::BoneQuality q = r.quality.value_or(registration::BoneQuality());
       const double sd_mm = q.out_of_plane_sd_m >= 0.0 ? 1e3 * q.out_of_plane_sd_m : -1.0;
-      std::snprintf(buffer, sizeof(buffer), ",%.4f,%.4f,%.4f", q.contour_inlier_fraction,
-                    q.contour_rms_px, sd_mm);
+      std::snprintf(buffer, sizeof(buffer), ",%.4f,%.4f,%.4f,%.4f", q.contour_inlier_fraction,
+                    q.contour_rms_px, sd_mm, q.contour_spread_px);
       out << buffer;
     }
     out << "\n";

@@ -76,6 +76,7 @@ void QualitySettings::validate() const {
   }
   fraction(lost_inlier_fraction, "lost_inlier_fraction");
   fraction(suspect_inlier_fraction, "suspect_inlier_fraction");
+  non_negative(suspect_contour_spread_px, "suspect_contour_spread_px");
   non_negative(suspect_contour_rms_px, "suspect_contour_rms_px");
   non_negative(suspect_penetration_mm, "suspect_penetration_mm");
   non_negative(suspect_envelope_violation, "suspect_envelope_violation");
@@ -137,7 +138,10 @@ std::vector<std::string> classifyBones(const RegistrationResult& result,
     if (q.contour_inlier_fraction < settings.lost_inlier_fraction) {
       status[b] = "lost";
     } else if (q.contour_inlier_fraction < settings.suspect_inlier_fraction ||
-               q.contour_rms_px > settings.suspect_contour_rms_px ||
+               (settings.suspect_contour_spread_px > 0.0 &&
+                q.contour_spread_px > settings.suspect_contour_spread_px) ||
+               (settings.suspect_contour_rms_px > 0.0 &&
+                q.contour_rms_px > settings.suspect_contour_rms_px) ||
                (settings.suspect_out_of_plane_sd_mm > 0.0 && q.out_of_plane_sd_m >= 0.0 &&
                 q.out_of_plane_sd_m * 1000.0 > settings.suspect_out_of_plane_sd_mm) ||
                (settings.suspect_rotation_sd_deg > 0.0 && q.max_rotation_sd_rad >= 0.0 &&

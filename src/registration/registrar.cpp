@@ -450,7 +450,25 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
   if (quality.contour_points > 0) {
     quality.contour_inlier_fraction = static_cast<double>(inliers) / quality.contour_points;
   }
-  if (inliers > 0) quality.contour_rms_px = std::sqrt(squared / inliers);
+  if (inliers > 0) {
+    quality.contour_rms_px = std::sqrt(squared / inliers);
+    double spread_squared = 0.0;
+    for (const std::vector<double>& view : signed_distances) {
+      double sum = 0.0;
+      int count = 0;
+      for (double d : view) {
+        if (std::isnan(d)) continue;
+        sum += d;
+        ++count;
+      }
+      if (count == 0) continue;
+      const double mean = sum / count;
+      for (double d : view) {
+        if (!std::isnan(d)) spread_squared += (d - mean) * (d - mean);
+      }
+    }
+    quality.contour_spread_px = std::sqrt(spread_squared / inliers);
+  }
   return quality;
 }
 

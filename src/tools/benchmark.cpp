@@ -391,7 +391,7 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
            "contour_rms_px,penetration_mm,envelope_violation,out_of_plane_sd_mm,"
            "rotation_sd_deg,status,error_x_mm,error_y_mm,error_z_mm,error_rx_deg,error_ry_deg,"
            "error_rz_deg,flexion_deg,adduction_deg,internal_rotation_deg,true_flexion_deg,"
-           "true_adduction_deg,true_internal_rotation_deg,edge_offset_px\n";
+           "true_adduction_deg,true_internal_rotation_deg,edge_offset_px,contour_spread_px\n";
   }
   std::vector<Tally> tallies(conditions.size());
   for (Tally& t : tallies) {
@@ -547,7 +547,8 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
                            << geometry::radToDeg(k->internal_rotation_rad);
             }
             const double* offset = firstViewEdgeOffset(result, b);
-            *quality_csv << "," << (offset != nullptr ? *offset : 0.0) << "\n";
+            *quality_csv << "," << (offset != nullptr ? *offset : 0.0) << "," << q.contour_spread_px
+                         << "\n";
           }
         }
       }
@@ -928,7 +929,13 @@ int main(int argc, char** argv) {
       "suspect-contour-rms-px",
       po::value(&settings.quality.suspect_contour_rms_px)
           ->default_value(settings.quality.suspect_contour_rms_px),
-      "status: suspect above this RMS edge distance of a bone's contour inliers (pixels)")(
+      "status: suspect above this RMS edge distance of a bone's contour inliers (pixels; 0: "
+      "off)")(
+      "suspect-contour-spread-px",
+      po::value(&settings.quality.suspect_contour_spread_px)
+          ->default_value(settings.quality.suspect_contour_spread_px),
+      "status: suspect above this RMS of a bone's contour inliers' edge distances about their "
+      "mean (pixels; 0: off)")(
       "suspect-out-of-plane-sd-mm",
       po::value(&settings.quality.suspect_out_of_plane_sd_mm)->default_value(0.0),
       "status: suspect above this out-of-plane standard deviation (needs --covariance)")(

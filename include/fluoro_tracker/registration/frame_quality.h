@@ -21,6 +21,12 @@ struct BoneQuality {
   // Of contour_points, the share within inlier_distance_px of an image edge.
   double contour_inlier_fraction = 0.0;
   double contour_rms_px = 0.0;  // RMS edge distance of the inliers (full-resolution pixels)
+  // RMS of the inliers' edge distances about their mean in each view (full-resolution pixels):
+  // the fit's scatter without its uniform part. A displayed rim lies a fraction of a pixel
+  // inside the silhouette, by an amount that depends on the material, dose and display (the
+  // edge offset the registrar estimates), so contour_rms_px measures that offset as much as
+  // the fit: bright titanium that fits reads 0.9-1.1 px, cobalt-chrome 0.3-0.6 px.
+  double contour_spread_px = 0.0;
   // From the solver's covariance (RegistrationResult::covariances, when computed): the
   // translation's standard deviation along the first view's beam (m), the direction
   // single-plane registration pins down worst. Negative when not computed.
@@ -47,18 +53,23 @@ struct JointQuality {
 // Thresholds that turn the quality figures into a bone's status (the `registration: quality:`
 // section of the trial YAML). A bone is `lost` when its registration diverged, came back
 // non-finite, or fewer than lost_inlier_fraction of its contour samples lie on image edges; it
-// is `suspect` when fewer than suspect_inlier_fraction do, when their RMS exceeds
-// suspect_contour_rms_px, when a joint it belongs to penetrates deeper than
-// suspect_penetration_mm or leaves its ligament envelope by more than
-// suspect_envelope_violation (deg or mm), or when its out-of-plane standard deviation exceeds
-// suspect_out_of_plane_sd_mm or its largest rotational one exceeds suspect_rotation_sd_deg (0
-// turns a test off; both need compute_covariance). Frames registered in sequence (the Tracker,
-// the benchmark's trials) also compare each bone with its own recent frames (InlierHistory).
+// is `suspect` when fewer than suspect_inlier_fraction do, when their edge distances' RMS
+// about their mean exceeds suspect_contour_spread_px (or their RMS, suspect_contour_rms_px),
+// when a joint it belongs to penetrates deeper than suspect_penetration_mm or leaves its
+// ligament envelope by more than suspect_envelope_violation (deg or mm), or when its out-of-plane
+// standard deviation exceeds suspect_out_of_plane_sd_mm or its largest rotational one exceeds
+// suspect_rotation_sd_deg (0 turns a test off; both need compute_covariance). Frames registered in
+// sequence (the Tracker, the benchmark's trials) also compare each bone with its own recent frames
+// (InlierHistory).
 struct QualitySettings {
   double inlier_distance_px = 1.5;
   double lost_inlier_fraction = 0.3;
   double suspect_inlier_fraction = 0.6;
-  double suspect_contour_rms_px = 1.0;
+  // Inliers scattered like chance over the +-inlier_distance_px band have an RMS of
+  // inlier_distance_px / sqrt(3) (0.87 px); a bone that fits has 0.2-0.5 px. 0 turns a test
+  // off. Measured: README, "Tracking quality".
+  double suspect_contour_spread_px = 0.7;
+  double suspect_contour_rms_px = 0.0;  // off: see contour_spread_px
   double suspect_penetration_mm = 2.0;
   double suspect_envelope_violation = 5.0;
   double suspect_out_of_plane_sd_mm = 0.0;

@@ -375,7 +375,8 @@ registration:
   reflection_retry: {enabled: false, below_inlier_fraction: 0.7, min_inlier_gain: 0.1}
   depth_retry: {enabled: false, shifts_mm: [-10, 10, -25], light_below_inlier_fraction: 0.8}
   quality: {relative_inlier_drop: 0.2, relative_inlier_spread: 2.5, relative_inlier_window: 10,
-            relative_inlier_min_frames: 5, relative_inlier_trend_frames: 6}
+            relative_inlier_min_frames: 5, relative_inlier_trend_frames: 6,
+            suspect_contour_spread_px: 0.6, suspect_contour_rms_px: 1.2}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_EQ(c.registration.parameterisation,
@@ -411,6 +412,8 @@ registration:
   EXPECT_EQ(c.registration.quality.relative_inlier_window, 10);
   EXPECT_EQ(c.registration.quality.relative_inlier_min_frames, 5);
   EXPECT_EQ(c.registration.quality.relative_inlier_trend_frames, 6);
+  EXPECT_DOUBLE_EQ(c.registration.quality.suspect_contour_spread_px, 0.6);
+  EXPECT_DOUBLE_EQ(c.registration.quality.suspect_contour_rms_px, 1.2);
   EXPECT_DOUBLE_EQ(c.registration.quality.suspect_inlier_fraction,
                    registration::QualitySettings().suspect_inlier_fraction);
   EXPECT_EQ(c.registration.scales, (std::vector<double>{0.25, 1.0}));
@@ -499,6 +502,8 @@ registration:
                              "relative_inlier_drop must be in [0, 1]");
   expectRegistrationRejected("{quality: {relative_inlier_spread: -1}}",
                              "relative_inlier_spread must be >= 0");
+  expectRegistrationRejected("{quality: {suspect_contour_spread_px: -0.5}}",
+                             "suspect_contour_spread_px must be >= 0");
   expectRegistrationRejected(
       "{quality: {relative_inlier_window: 4, relative_inlier_min_frames: 5}}",
       "relative_inlier_min_frames in [1, relative_inlier_window]");
