@@ -35,6 +35,29 @@ TEST(PosesCsv, RoundTripKeepsEveryField) {
   }
 }
 
+// The quality columns follow `status`; the spread came last (stop 53) so that readers of the
+// earlier ones by position still find them.
+TEST(PosesCsv, QualityColumnsFollowTheStatusWithTheSpreadLast) {
+  TempDir dir;
+  registration::BoneQuality quality;
+  quality.contour_inlier_fraction = 0.95;
+  quality.contour_rms_px = 0.9;
+  quality.contour_spread_px = 0.3;
+  quality.out_of_plane_sd_m = 0.0012;
+  io::writePosesCsv(dir.file("q.csv"),
+                    {{0, 1.0, "tibia", geometry::Pose::Identity(), "ok", quality}});
+  std::ifstream in(dir.file("q.csv"));
+  std::string header;
+  std::string row;
+  std::getline(in, header);
+  std::getline(in, row);
+  EXPECT_EQ(header, std::string(io::kPosesCsvHeader) +
+                        ",contour_inlier_fraction,contour_rms_px,out_of_plane_sd_mm,"
+                        "contour_spread_px");
+  EXPECT_NE(row.find(",ok,0.9500,0.9000,1.2000,0.3000"), std::string::npos) << row;
+  EXPECT_EQ(io::readPosesCsv(dir.file("q.csv")).size(), 1u);
+}
+
 TEST(PosesCsv, ExtraColumnsAreAllowed) {
   TempDir dir;
   test_support::writeText(dir.file("p.csv"),
