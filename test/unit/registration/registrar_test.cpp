@@ -1242,8 +1242,9 @@ TEST(Registrar, QualityLeavesOutContourCoveredByTheOtherBone) {
 // A displayed rim lies off the silhouette by an amount that depends on the material and the
 // display (the edge offset the registrar estimates per bone). Bright titanium components,
 // registered from the truth, fit well but their inliers' edge distances centre on that offset,
-// so their RMS reads about 1 px where their spread about its mean, which the suspect test
-// reads, stays that of a good fit (README "Tracking quality": the RMS test flagged such frames).
+// so their RMS reads 0.6-0.9 px (the tray's about its offset) where their spread about its
+// mean, which the suspect test reads, stays that of a good fit, 0.25-0.45 px (README "Tracking
+// quality": the RMS test flagged such frames).
 TEST(Registrar, ContourSpreadLeavesOutTheRimsUniformOffset) {
   sim::TrialSimulatorSettings settings;
   settings.motion.frames = 12;
