@@ -10,6 +10,36 @@
 namespace fluoro_tracker {
 namespace registration {
 
+namespace {
+
+// `sequence` less the mean of its finite values (gaps stay gaps); `finite` counts those values.
+std::vector<double> lessItsMean(const std::vector<double>& sequence, int* finite) {
+  double sum = 0.0;
+  int n = 0;
+  for (double x : sequence) {
+    if (std::isfinite(x)) {
+      sum += x;
+      ++n;
+    }
+  }
+  *finite = n;
+  if (n == 0) return sequence;
+  const double mean = sum / n;
+  std::vector<double> deviations;
+  deviations.reserve(sequence.size());
+  for (double x : sequence) deviations.push_back(x - mean);
+  return deviations;
+}
+
+// Adds the squares of `values`' finite entries to `total`, one by one.
+void addFiniteSquares(const std::vector<double>& values, double* total) {
+  for (double x : values) {
+    if (std::isfinite(x)) *total += x * x;
+  }
+}
+
+}  // namespace
+
 double integratedAutocorrelation(const std::vector<std::vector<double>>& sequences) {
   constexpr int kMaxLag = 200;
   std::vector<std::vector<double>> centred;
@@ -17,23 +47,13 @@ double integratedAutocorrelation(const std::vector<std::vector<double>>& sequenc
   double raw_squares = 0.0;  // for a spread threshold relative to the values' size
   int count = 0;
   for (const auto& sequence : sequences) {
-    double sum = 0.0;
+    addFiniteSquares(sequence, &raw_squares);
     int n = 0;
-    for (double x : sequence) {
-      if (std::isfinite(x)) {
-        sum += x;
-        raw_squares += x * x;
-        ++n;
-      }
-    }
+    std::vector<double> deviations = lessItsMean(sequence, &n);
     if (n < 2) continue;
-    const double mean = sum / n;
-    centred.emplace_back();
-    for (double x : sequence) centred.back().push_back(x - mean);
-    for (double x : centred.back()) {
-      if (std::isfinite(x)) variance_sum += x * x;
-    }
+    addFiniteSquares(deviations, &variance_sum);
     count += n;
+    centred.push_back(std::move(deviations));
   }
   // Rounding leaves a constant sequence a spread of ~1e-32 of its square.
   if (count < 2 || !(variance_sum > 1e-20 * raw_squares)) return 1.0;
@@ -103,6 +123,17 @@ double envelopeViolation(const constraints::LigamentSettings& ligaments,
       ligaments, [&](const constraints::LigamentSettings& unit, double residuals[6]) {
         constraints::ligamentResiduals(unit, coordinates, residuals);
       });
+}
+
+double rmsAboutSequenceMeans(const std::vector<std::vector<double>>& sequences) {
+  double squares = 0.0;
+  int count = 0;
+  for (const auto& sequence : sequences) {
+    int n = 0;
+    addFiniteSquares(lessItsMean(sequence, &n), &squares);
+    count += n;
+  }
+  return count > 0 ? std::sqrt(squares / count) : 0.0;
 }
 
 std::string combinedStatus(const std::string& parent, const std::string& child) {

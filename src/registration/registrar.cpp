@@ -452,22 +452,7 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
   }
   if (inliers > 0) {
     quality.contour_rms_px = std::sqrt(squared / inliers);
-    double spread_squared = 0.0;
-    for (const std::vector<double>& view : signed_distances) {
-      double sum = 0.0;
-      int count = 0;
-      for (double d : view) {
-        if (std::isnan(d)) continue;
-        sum += d;
-        ++count;
-      }
-      if (count == 0) continue;
-      const double mean = sum / count;
-      for (double d : view) {
-        if (!std::isnan(d)) spread_squared += (d - mean) * (d - mean);
-      }
-    }
-    quality.contour_spread_px = std::sqrt(spread_squared / inliers);
+    quality.contour_spread_px = rmsAboutSequenceMeans(signed_distances);
   }
   return quality;
 }

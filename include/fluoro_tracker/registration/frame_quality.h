@@ -105,6 +105,11 @@ double envelopeViolation(const constraints::LigamentSettings& ligaments,
 // sample is worth. 1 for fewer than two finite samples or no spread.
 double integratedAutocorrelation(const std::vector<std::vector<double>>& sequences);
 
+// The RMS of one or more sequences' finite values about their own sequence's mean (NaN entries
+// are gaps; a sequence of one value deviates by nothing), over all the finite values; 0 without
+// any. Of each view's inliers' edge distances: BoneQuality::contour_spread_px.
+double rmsAboutSequenceMeans(const std::vector<std::vector<double>>& sequences);
+
 // A joint's status from its two bones': lost if either is, ok if both are, else suspect.
 std::string combinedStatus(const std::string& parent, const std::string& child);
 

@@ -1,5 +1,6 @@
 #include "fluoro_tracker/registration/frame_quality.h"
 
+#include <cmath>
 #include <limits>
 #include <random>
 
@@ -46,7 +47,7 @@ TEST(FrameQuality, StatusFollowsTheDocumentedThresholds) {
   EXPECT_EQ(classifyBones(nan, s)[1], "lost");
 }
 
-// The inliers' RMS counts the rim's uniform edge offset (1.0-1.1 px on titanium that fits), so
+// The inliers' RMS counts the rim's uniform edge offset (0.9-1.1 px on titanium that fits), so
 // by default only their spread about its mean is tested; the RMS test is there when asked.
 TEST(FrameQuality, ContourRmsIsTestedOnlyWhenAsked) {
   registration::QualitySettings s;
@@ -135,4 +136,15 @@ TEST(FrameQuality, ResidualCorrelationCountsTheSamplesOneIndependentResidualIsWo
   EXPECT_EQ(registration::integratedAutocorrelation({{1.0}}), 1.0);
   EXPECT_EQ(registration::integratedAutocorrelation({std::vector<double>(100, 0.3)}), 1.0);
   EXPECT_EQ(registration::integratedAutocorrelation({}), 1.0);
+}
+
+// Each view's edge distances about that view's own mean: an offset shared by a whole view drops
+// out, one that differs between views does too, and a view of a single inlier deviates by nothing.
+TEST(FrameQuality, RmsAboutSequenceMeansLeavesOutEachSequencesOwnMean) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NEAR(registration::rmsAboutSequenceMeans({{0.8, nan, 1.2}, {-0.5}}),
+              std::sqrt((0.04 + 0.04) / 3.0), 1e-12);
+  EXPECT_NEAR(registration::rmsAboutSequenceMeans({{1.0, 1.0}, {-2.0, -2.0}}), 0.0, 1e-12);
+  EXPECT_EQ(registration::rmsAboutSequenceMeans({{nan}}), 0.0);
+  EXPECT_EQ(registration::rmsAboutSequenceMeans({}), 0.0);
 }
