@@ -156,6 +156,10 @@ std::pair<int, double> resultRank(const RegistrationResult& result,
 
 std::vector<std::string> classifyBones(const RegistrationResult& result,
                                        const QualitySettings& settings) {
+  // An optional test (threshold 0: off); a figure not computed (negative) is never above it.
+  const auto above = [](double figure, double threshold) {
+    return threshold > 0.0 && figure > threshold;
+  };
   const std::size_t bones = result.poses.size();
   std::vector<std::string> status(bones, "ok");
   for (std::size_t b = 0; b < bones; ++b) {
@@ -169,14 +173,10 @@ std::vector<std::string> classifyBones(const RegistrationResult& result,
     if (q.contour_inlier_fraction < settings.lost_inlier_fraction) {
       status[b] = "lost";
     } else if (q.contour_inlier_fraction < settings.suspect_inlier_fraction ||
-               (settings.suspect_contour_spread_px > 0.0 &&
-                q.contour_spread_px > settings.suspect_contour_spread_px) ||
-               (settings.suspect_contour_rms_px > 0.0 &&
-                q.contour_rms_px > settings.suspect_contour_rms_px) ||
-               (settings.suspect_out_of_plane_sd_mm > 0.0 && q.out_of_plane_sd_m >= 0.0 &&
-                q.out_of_plane_sd_m * 1000.0 > settings.suspect_out_of_plane_sd_mm) ||
-               (settings.suspect_rotation_sd_deg > 0.0 && q.max_rotation_sd_rad >= 0.0 &&
-                geometry::radToDeg(q.max_rotation_sd_rad) > settings.suspect_rotation_sd_deg)) {
+               above(q.contour_spread_px, settings.suspect_contour_spread_px) ||
+               above(q.contour_rms_px, settings.suspect_contour_rms_px) ||
+               above(q.out_of_plane_sd_m * 1000.0, settings.suspect_out_of_plane_sd_mm) ||
+               above(geometry::radToDeg(q.max_rotation_sd_rad), settings.suspect_rotation_sd_deg)) {
       status[b] = "suspect";
     }
   }
