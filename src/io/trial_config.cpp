@@ -358,10 +358,12 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   mirror.read("neutral_internal_rotation_per_flexion",
               &r.mirror_check.neutral_internal_rotation_per_flexion);
   const YamlSection reflection_retry = section.child("reflection_retry");
-  reflection_retry.allowOnly({"enabled", "below_inlier_fraction", "min_inlier_gain"});
+  reflection_retry.allowOnly(
+      {"enabled", "below_inlier_fraction", "min_inlier_gain", "before_mirror_check"});
   reflection_retry.read("enabled", &r.reflection_retry.enabled);
   reflection_retry.read("below_inlier_fraction", &r.reflection_retry.below_inlier_fraction);
   reflection_retry.read("min_inlier_gain", &r.reflection_retry.min_inlier_gain);
+  reflection_retry.read("before_mirror_check", &r.reflection_retry.before_mirror_check);
   const YamlSection depth_retry = section.child("depth_retry");
   depth_retry.allowOnly({"enabled", "shifts_mm", "light_below_inlier_fraction"});
   depth_retry.read("enabled", &r.depth_retry.enabled);

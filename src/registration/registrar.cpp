@@ -700,9 +700,11 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
     }
   }
   std::vector<imaging::EdgeMap> finest_maps;
-  RegistrationResult result =
-      solveChecked(views, initial_poses, loaded, offset_priors, settings_.threads, &finest_maps);
-  retryReflections(views, initial_poses, loaded, offset_priors, &result);
+  std::optional<RegistrationResult> unchecked;
+  RegistrationResult result = solveChecked(views, initial_poses, loaded, offset_priors,
+                                           settings_.threads, &finest_maps, &unchecked);
+  retryReflections(views, initial_poses, loaded, offset_priors, unchecked ? &*unchecked : nullptr,
+                   &result);
   if (!settings_.depth_retry.enabled) return result;
   // Fewer bones not ok first (lost counts twice), then more contour inliers.
   const auto rank = [&](const RegistrationResult& r) { return resultRank(r, settings_.quality); };
@@ -789,6 +791,7 @@ void Registrar::retryReflections(const std::vector<ViewImage>& views,
                                  const std::vector<geometry::Pose>& initial_poses,
                                  const std::vector<bool>& loaded,
                                  const EdgeOffsetPriors& offset_priors,
+                                 const RegistrationResult* unchecked,
                                  RegistrationResult* result) const {
   const ReflectionRetrySettings& retry_settings = settings_.reflection_retry;
   // A second view sees the reflection from another side.
@@ -799,10 +802,26 @@ void Registrar::retryReflections(const std::vector<ViewImage>& views,
   const geometry::Pose camera_from_fixed = views.front().camera.worldFromCamera().inverse();
   const double min_difference = geometry::degToRad(settings_.mirror_check.min_difference_deg);
   SolveCounts counts(*result);
+  if (!retry_settings.before_mirror_check || unchecked == nullptr ||
+      unchecked->quality.size() != unchecked->poses.size()) {
+    unchecked = nullptr;
+  }
+  const auto below_gate = [&](const RegistrationResult& r, std::size_t b) {
+    return r.quality[b].contour_inlier_fraction < retry_settings.below_inlier_fraction;
+  };
   for (std::size_t b = 0; b < result->poses.size(); ++b) {
-    const double inliers = result->quality[b].contour_inlier_fraction;
-    if (!(inliers < retry_settings.below_inlier_fraction)) continue;
-    const geometry::Pose pose = camera_from_fixed * result->poses[b];
+    // The reflections of the bone in the result, or in the first solution if only that one
+    // left it below the gate (ReflectionRetrySettings::before_mirror_check).
+    const RegistrationResult* source = result;
+    if (!below_gate(*result, b)) {
+      if (unchecked == nullptr || mirrorChecked(b) || unchecked->diverged[b] ||
+          !below_gate(*unchecked, b)) {
+        continue;
+      }
+      source = unchecked;
+    }
+    const double inliers = source->quality[b].contour_inlier_fraction;
+    const geometry::Pose pose = camera_from_fixed * source->poses[b];
     const std::vector<geometry::Pose> candidates = {
         mirroredAcrossBeam(pose), turnReflectedAcrossBeam(pose), tiltReflectedAcrossBeam(pose)};
     const int first_trouble = resultRank(*result, settings_.quality).first;
@@ -819,7 +838,7 @@ void Registrar::retryReflections(const std::vector<ViewImage>& views,
     }
     std::vector<RegistrationResult> retries(solved.size());
     parallelFor(solved.size(), settings_.threads, [&](std::size_t k) {
-      std::vector<geometry::Pose> starts = result->poses;
+      std::vector<geometry::Pose> starts = source->poses;
       starts[b] = camera_from_fixed.inverse() * candidates[solved[k]];
       retries[k] = solveChecked(views, starts, loaded, offset_priors,
                                 solved.size() > 1 ? 1 : settings_.threads);
@@ -838,16 +857,29 @@ void Registrar::retryReflections(const std::vector<ViewImage>& views,
         best = std::move(retry);
       }
     }
-    if (best) *result = std::move(*best);
+    if (best) {
+      *result = std::move(*best);
+      unchecked = nullptr;  // later bones start from the better result
+    }
   }
   counts.writeTo(result);
+}
+
+bool Registrar::mirrorChecked(std::size_t b) const {
+  for (const JointModel& joint : joints_) {
+    if (joint.type == kinematics::JointType::kKnee && joint.child == static_cast<int>(b)) {
+      return true;
+    }
+  }
+  return false;
 }
 
 RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
                                            const std::vector<geometry::Pose>& initial_poses,
                                            const std::vector<bool>& loaded,
                                            const EdgeOffsetPriors& offset_priors, int threads,
-                                           std::vector<imaging::EdgeMap>* finest_maps_out) const {
+                                           std::vector<imaging::EdgeMap>* finest_maps_out,
+                                           std::optional<RegistrationResult>* unchecked_out) const {
   std::vector<imaging::EdgeMap> finest_maps;
   RegistrationResult result = solveFrom(views, initial_poses, loaded, offset_priors, &finest_maps);
   if (finest_maps_out != nullptr) *finest_maps_out = finest_maps;
@@ -928,6 +960,7 @@ RegistrationResult Registrar::solveChecked(const std::vector<ViewImage>& views,
       }
     }
     if (replaced) {
+      if (unchecked_out != nullptr && !*unchecked_out) *unchecked_out = result;
       finish(views, &best);
       result = std::move(best.result);
     }

@@ -775,6 +775,11 @@ int main(int argc, char** argv) {
       po::value(&settings.reflection_retry.min_inlier_gain)
           ->default_value(settings.reflection_retry.min_inlier_gain),
       "the inlier fraction a reflection must gain to be kept")(
+      "reflection-retry-before-mirror-check",
+      po::value(&settings.reflection_retry.before_mirror_check)
+          ->default_value(settings.reflection_retry.before_mirror_check),
+      "... also a bone the mirror check does not reflect (the femur) that the first solution, "
+      "before the check replaced it, left below the gate (true/false)")(
       "depth-retry",
       po::value(&settings.depth_retry.enabled)->default_value(settings.depth_retry.enabled),
       "when a bone's status is not ok, solve again from the starts moved along the beam by "

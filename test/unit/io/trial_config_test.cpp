@@ -372,7 +372,8 @@ registration:
                  tracking_turn_max_difference_deg: 4, min_neutral_gain: 0.25,
                  abandon_cost_ratio: 3.5, abandon_deviation_excess: 0.5,
                  start_deviation_excess: 2.5, neutral_internal_rotation_per_flexion: 0.1}
-  reflection_retry: {enabled: false, below_inlier_fraction: 0.7, min_inlier_gain: 0.1}
+  reflection_retry: {enabled: false, below_inlier_fraction: 0.7, min_inlier_gain: 0.1,
+                     before_mirror_check: false}
   depth_retry: {enabled: false, shifts_mm: [-10, 10, -25], light_below_inlier_fraction: 0.8}
   quality: {relative_inlier_drop: 0.2, relative_inlier_spread: 2.5, relative_inlier_window: 10,
             relative_inlier_min_frames: 5, relative_inlier_trend_frames: 6,
@@ -402,6 +403,7 @@ registration:
   EXPECT_FALSE(c.registration.reflection_retry.enabled);
   EXPECT_DOUBLE_EQ(c.registration.reflection_retry.below_inlier_fraction, 0.7);
   EXPECT_DOUBLE_EQ(c.registration.reflection_retry.min_inlier_gain, 0.1);
+  EXPECT_FALSE(c.registration.reflection_retry.before_mirror_check);
   EXPECT_FALSE(c.registration.depth_retry.enabled);
   EXPECT_EQ(c.registration.depth_retry.shifts_mm, (std::vector<double>{-10.0, 10.0, -25.0}));
   EXPECT_DOUBLE_EQ(c.registration.depth_retry.light_below_inlier_fraction, 0.8);
@@ -572,6 +574,8 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
                    d.reflection_retry.below_inlier_fraction);
   EXPECT_DOUBLE_EQ(c.registration.reflection_retry.min_inlier_gain,
                    d.reflection_retry.min_inlier_gain);
+  EXPECT_EQ(c.registration.reflection_retry.before_mirror_check,
+            d.reflection_retry.before_mirror_check);
   EXPECT_EQ(c.registration.depth_retry.enabled, d.depth_retry.enabled);
   EXPECT_EQ(c.registration.depth_retry.shifts_mm, d.depth_retry.shifts_mm);
   EXPECT_EQ(c.registration.depth_retry.light_below_inlier_fraction,
