@@ -250,6 +250,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "compute_covariance",
                      "mirror_check",
                      "reflection_retry",
+                     "rotation_retry",
                      "depth_retry",
                      "quality",
                      "search"});
@@ -364,6 +365,11 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   reflection_retry.read("below_inlier_fraction", &r.reflection_retry.below_inlier_fraction);
   reflection_retry.read("min_inlier_gain", &r.reflection_retry.min_inlier_gain);
   reflection_retry.read("before_mirror_check", &r.reflection_retry.before_mirror_check);
+  const YamlSection rotation_retry = section.child("rotation_retry");
+  rotation_retry.allowOnly({"enabled", "above_contour_spread_px", "step_deg"});
+  rotation_retry.read("enabled", &r.rotation_retry.enabled);
+  rotation_retry.read("above_contour_spread_px", &r.rotation_retry.above_contour_spread_px);
+  rotation_retry.read("step_deg", &r.rotation_retry.step_deg);
   const YamlSection depth_retry = section.child("depth_retry");
   depth_retry.allowOnly({"enabled", "shifts_mm", "light_below_inlier_fraction"});
   depth_retry.read("enabled", &r.depth_retry.enabled);

@@ -241,6 +241,7 @@ PoseSearch::PoseSearch(std::shared_ptr<const Registrar> registrar, PoseSearchSet
   // Each start is one hypothesis among many; the search itself covers depth.
   refine.depth_retry.enabled = false;
   refine.reflection_retry.enabled = false;
+  refine.rotation_retry.enabled = false;
   // Hypotheses are screened and chosen by their contour's inlier support; local equalisation
   // raises clutter edges everywhere, which lends wrong hypotheses support (real Kneel frame
   // 0180: a tibial tray turned 28 deg about its stem won). The search works on the window

@@ -638,6 +638,10 @@ void RegistrationSettings::validate() const {
       throw InputError("registration: depth_retry: shifts_mm must be finite and non-zero");
     }
   }
+  if (!(rotation_retry.above_contour_spread_px >= 0.0) || !(rotation_retry.step_deg > 0.0)) {
+    throw InputError(
+        "registration: rotation_retry needs above_contour_spread_px >= 0 and step_deg > 0");
+  }
   if (!(depth_retry.light_below_inlier_fraction >= 0.0 &&
         depth_retry.light_below_inlier_fraction <= 1.0)) {
     throw InputError("registration: depth_retry: light_below_inlier_fraction must be in [0, 1]");
@@ -705,6 +709,7 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
                                            settings_.threads, &finest_maps, &unchecked);
   retryReflections(views, initial_poses, loaded, offset_priors, unchecked ? &*unchecked : nullptr,
                    &result);
+  retryRotations(views, loaded, offset_priors, &result);
   if (!settings_.depth_retry.enabled) return result;
   // Fewer bones not ok first (lost counts twice), then more contour inliers.
   const auto rank = [&](const RegistrationResult& r) { return resultRank(r, settings_.quality); };
@@ -862,6 +867,52 @@ void Registrar::retryReflections(const std::vector<ViewImage>& views,
       unchecked = nullptr;  // later bones start from the better result
     }
   }
+  counts.writeTo(result);
+}
+
+void Registrar::retryRotations(const std::vector<ViewImage>& views, const std::vector<bool>& loaded,
+                               const EdgeOffsetPriors& offset_priors,
+                               RegistrationResult* result) const {
+  const RotationRetrySettings& retry_settings = settings_.rotation_retry;
+  if (!retry_settings.enabled || result->quality.size() != result->poses.size()) return;
+  const double step = geometry::degToRad(retry_settings.step_deg);
+  const std::array<Eigen::Matrix3d, 6> turns = {
+      geometry::rotationX(step),  geometry::rotationX(-step), geometry::rotationY(step),
+      geometry::rotationY(-step), geometry::rotationZ(step),  geometry::rotationZ(-step)};
+  std::vector<std::vector<geometry::Pose>> starts;
+  for (std::size_t b = 0; b < result->poses.size(); ++b) {
+    if (result->diverged[b] ||
+        !(result->quality[b].contour_spread_px > retry_settings.above_contour_spread_px)) {
+      continue;
+    }
+    for (const Eigen::Matrix3d& turn : turns) {
+      std::vector<geometry::Pose> turned = result->poses;
+      turned[b].linear() = result->poses[b].linear() * turn;
+      starts.push_back(std::move(turned));
+    }
+  }
+  if (starts.empty()) return;
+  // Each solve starts from the same result, so threads may share them out.
+  std::vector<RegistrationResult> retries(starts.size());
+  parallelFor(starts.size(), settings_.threads, [&](std::size_t k) {
+    retries[k] = solveChecked(views, starts[k], loaded, offset_priors, 1);
+  });
+  SolveCounts counts(*result);
+  const int first_trouble = resultRank(*result, settings_.quality).first;
+  std::optional<std::size_t> best;
+  double best_cost = result->final_cost;
+  for (std::size_t k = 0; k < retries.size(); ++k) {
+    const RegistrationResult& retry = retries[k];
+    counts.add(retry);
+    const bool diverged =
+        std::find(retry.diverged.begin(), retry.diverged.end(), true) != retry.diverged.end();
+    if (diverged || resultRank(retry, settings_.quality).first > first_trouble) continue;
+    if (retry.final_cost < best_cost) {
+      best_cost = retry.final_cost;
+      best = k;
+    }
+  }
+  if (best) *result = std::move(retries[*best]);
   counts.writeTo(result);
 }
 

@@ -48,11 +48,12 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
   }
   if (settings.mirror_check.enabled || settings.tracking_scales != settings.scales ||
       settings.depth_retry.enabled || settings.reflection_retry.enabled ||
-      tracking_margin_differs) {
+      settings.rotation_retry.enabled || tracking_margin_differs) {
     RegistrationSettings continuing = settings;
     // A continued frame starts near its answer; a lost one is searched (see track()).
     continuing.depth_retry.enabled = false;
     continuing.reflection_retry.enabled = false;
+    continuing.rotation_retry.enabled = false;
     // Only the turn reflection, and only near the view where the branches meet (see
     // MirrorCheckSettings::tracking_turn_max_difference_deg).
     const MirrorCheckSettings& mirror = settings.mirror_check;

@@ -780,6 +780,18 @@ int main(int argc, char** argv) {
           ->default_value(settings.reflection_retry.before_mirror_check),
       "... also a bone the mirror check does not reflect (the femur) that the first solution, "
       "before the check replaced it, left below the gate (true/false)")(
+      "rotation-retry",
+      po::value(&settings.rotation_retry.enabled)->default_value(settings.rotation_retry.enabled),
+      "a bone whose contour spread is above --rotation-retry-above-spread-px is solved again "
+      "from the result turned --rotation-retry-step-deg either way about each of its axes; the "
+      "lowest cost, if lower, is kept (true/false)")(
+      "rotation-retry-above-spread-px",
+      po::value(&settings.rotation_retry.above_contour_spread_px)
+          ->default_value(settings.rotation_retry.above_contour_spread_px),
+      "the rotation retry's gate")(
+      "rotation-retry-step-deg",
+      po::value(&settings.rotation_retry.step_deg)->default_value(settings.rotation_retry.step_deg),
+      "the rotation retry's turn")(
       "depth-retry",
       po::value(&settings.depth_retry.enabled)->default_value(settings.depth_retry.enabled),
       "when a bone's status is not ok, solve again from the starts moved along the beam by "

@@ -185,6 +185,21 @@ struct ReflectionRetrySettings {
   bool before_mirror_check = true;
 };
 
+// A bone whose contour lies on its edges with a wide spread (BoneQuality::contour_spread_px
+// above `above_contour_spread_px`) may sit in a false minimum a few degrees from the truth: on
+// one simulated trial every frame started with the tray tilted 3 deg one way about its own
+// medial-lateral axis ended 2.7-3.9 deg off and up to 11 mm along the beam, at 1.4-4 x the cost
+// the same frame reaches from its truth, its contour still 0.78-0.99 on edges (README,
+// "Registration"). The registrar then solves the frame again from the result with that bone
+// turned by `step_deg` either way about each of its three axes and keeps the solve with the
+// lowest cost, if lower than the result's and no bone's status is worse. Registrations from
+// the user's poses only (frames the tracker continues and the search's refinements do not).
+struct RotationRetrySettings {
+  bool enabled = true;
+  double above_contour_spread_px = 0.45;
+  double step_deg = 3.0;
+};
+
 struct EdgeOffsetTrackingSettings {
   bool enabled = true;
   // Standard deviation of one frame's estimate (benchmark: 0.04-0.24 px within a trial).
@@ -396,6 +411,7 @@ struct RegistrationSettings {
   bool compute_covariance = false;
   MirrorCheckSettings mirror_check;
   ReflectionRetrySettings reflection_retry;
+  RotationRetrySettings rotation_retry;
   DepthRetrySettings depth_retry;
   imaging::EdgeMapSettings edges;
   QualitySettings quality;
@@ -595,6 +611,9 @@ class Registrar {
                                   const EdgeOffsetPriors& offset_priors, int threads,
                                   std::vector<imaging::EdgeMap>* finest_maps_out = nullptr,
                                   std::optional<RegistrationResult>* unchecked_out = nullptr) const;
+  // The rotation retry (RotationRetrySettings) of `result`, solved from these arguments.
+  void retryRotations(const std::vector<ViewImage>& views, const std::vector<bool>& loaded,
+                      const EdgeOffsetPriors& offset_priors, RegistrationResult* result) const;
   // Whether the mirror check reflects bone `b` (the child of a knee joint).
   bool mirrorChecked(std::size_t b) const;
   // The depth retry's starts: `poses` with every bone moved along its ray from the first view's
