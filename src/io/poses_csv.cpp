@@ -57,7 +57,8 @@ void writePosesCsv(const std::string& path, const std::vector<PoseRecord>& recor
                                         [](const PoseRecord& r) { return r.quality.has_value(); });
   out << kPosesCsvHeader
       << (with_quality
-              ? ",contour_inlier_fraction,contour_rms_px,out_of_plane_sd_mm,contour_spread_px"
+              ? ",contour_inlier_fraction,contour_rms_px,out_of_plane_sd_mm,contour_spread_px,"
+                "offset_inlier_fraction"
               : "")
       << "\n";
   char buffer[512];
@@ -75,8 +76,8 @@ void writePosesCsv(const std::string& path, const std::vector<PoseRecord>& recor
     if (with_quality) {
       const registration::BoneQuality q = r.quality.value_or(registration::BoneQuality());
       const double sd_mm = q.out_of_plane_sd_m >= 0.0 ? 1e3 * q.out_of_plane_sd_m : -1.0;
-      std::snprintf(buffer, sizeof(buffer), ",%.4f,%.4f,%.4f,%.4f", q.contour_inlier_fraction,
-                    q.contour_rms_px, sd_mm, q.contour_spread_px);
+      std::snprintf(buffer, sizeof(buffer), ",%.4f,%.4f,%.4f,%.4f,%.4f", q.contour_inlier_fraction,
+                    q.contour_rms_px, sd_mm, q.contour_spread_px, q.offset_inlier_fraction);
       out << buffer;
     }
     out << "\n";

@@ -256,13 +256,14 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "search"});
   section.read("compute_covariance", &r.compute_covariance);
   const YamlSection quality = section.child("quality");
-  quality.allowOnly({"inlier_distance_px", "lost_inlier_fraction", "suspect_inlier_fraction",
-                     "suspect_contour_spread_px", "suspect_contour_rms_px",
-                     "suspect_penetration_mm", "suspect_envelope_violation",
-                     "suspect_out_of_plane_sd_mm", "suspect_rotation_sd_deg",
-                     "relative_inlier_drop", "relative_inlier_spread", "relative_inlier_window",
-                     "relative_inlier_min_frames", "relative_inlier_trend_frames"});
+  quality.allowOnly(
+      {"inlier_distance_px", "inliers_at_edge_offset", "lost_inlier_fraction",
+       "suspect_inlier_fraction", "suspect_contour_spread_px", "suspect_contour_rms_px",
+       "suspect_penetration_mm", "suspect_envelope_violation", "suspect_out_of_plane_sd_mm",
+       "suspect_rotation_sd_deg", "relative_inlier_drop", "relative_inlier_spread",
+       "relative_inlier_window", "relative_inlier_min_frames", "relative_inlier_trend_frames"});
   quality.read("inlier_distance_px", &r.quality.inlier_distance_px);
+  quality.read("inliers_at_edge_offset", &r.quality.inliers_at_edge_offset);
   quality.read("lost_inlier_fraction", &r.quality.lost_inlier_fraction);
   quality.read("suspect_inlier_fraction", &r.quality.suspect_inlier_fraction);
   quality.read("suspect_contour_spread_px", &r.quality.suspect_contour_spread_px);

@@ -147,6 +147,11 @@ int statusTrouble(const std::vector<std::string>& status) {
   return trouble;
 }
 
+double statusInlierFraction(const BoneQuality& quality, const QualitySettings& settings) {
+  return settings.inliers_at_edge_offset ? quality.offset_inlier_fraction
+                                         : quality.contour_inlier_fraction;
+}
+
 std::pair<int, double> resultRank(const RegistrationResult& result,
                                   const QualitySettings& settings) {
   double inliers = 0.0;
@@ -170,9 +175,10 @@ std::vector<std::string> classifyBones(const RegistrationResult& result,
     }
     if (b >= result.quality.size()) continue;
     const BoneQuality& q = result.quality[b];
-    if (q.contour_inlier_fraction < settings.lost_inlier_fraction) {
+    const double inliers = statusInlierFraction(q, settings);
+    if (inliers < settings.lost_inlier_fraction) {
       status[b] = "lost";
-    } else if (q.contour_inlier_fraction < settings.suspect_inlier_fraction ||
+    } else if (inliers < settings.suspect_inlier_fraction ||
                above(q.contour_spread_px, settings.suspect_contour_spread_px) ||
                above(q.contour_rms_px, settings.suspect_contour_rms_px) ||
                above(q.out_of_plane_sd_m * 1000.0, settings.suspect_out_of_plane_sd_mm) ||

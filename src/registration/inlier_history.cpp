@@ -10,7 +10,8 @@ namespace fluoro_tracker {
 namespace registration {
 
 InlierHistory::InlierHistory(const QualitySettings& settings)
-    : drop_(settings.relative_inlier_drop),
+    : quality_(settings),
+      drop_(settings.relative_inlier_drop),
       spread_(settings.relative_inlier_spread),
       window_(static_cast<std::size_t>(std::max(settings.relative_inlier_window, 1))),
       min_frames_(static_cast<std::size_t>(std::max(settings.relative_inlier_min_frames, 1))),
@@ -21,6 +22,10 @@ double InlierHistory::median(std::size_t bone) const {
     return std::numeric_limits<double>::quiet_NaN();
   }
   return fluoro_tracker::median(std::vector<double>(recent_[bone].begin(), recent_[bone].end()));
+}
+
+double InlierHistory::fractionOf(const BoneQuality& quality) const {
+  return statusInlierFraction(quality, quality_);
 }
 
 bool InlierHistory::fallsBelowMedian(std::size_t bone, double fraction, double drop) const {
@@ -74,7 +79,7 @@ void InlierHistory::classify(const std::vector<BoneQuality>& quality,
   const std::size_t bones = std::min(quality.size(), status->size());
   if (recent_.size() < bones) recent_.resize(bones);
   for (std::size_t b = 0; b < bones; ++b) {
-    const double fraction = quality[b].contour_inlier_fraction;
+    const double fraction = fractionOf(quality[b]);
     std::string& bone_status = (*status)[b];
     if (drop_ > 0.0 && bone_status == "ok" && recent_[b].size() >= min_frames_) {
       // The allowance comes from the scatter about the window's median; the reference may

@@ -380,7 +380,9 @@ void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& 
 }
 
 // The image support of a bone at its final pose: its contour samples in every view's map, and
-// how many of them lie within `inlier_px` (full-resolution pixels) of an image edge. The samples
+// how many of them lie within `inlier_px` (full-resolution pixels) of an image edge, where the
+// outline lies and where the view's edge offset (`offsets_px[v]`, full-resolution pixels, along
+// `offset_directions[v]` or, for a fresh contour, offsetDirection) puts each sample. The samples
 // are the model points of the last contour extracted per view (`model_points[v]`; the final
 // step is small, so the rim is the same), projected at the final pose; a view without them
 // has its contour extracted afresh. Samples inside another bone's silhouette (`covering[v]`:
@@ -392,10 +394,14 @@ void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& 
 BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geometry::Pose& pose,
                          const std::vector<imaging::EdgeMap>& maps,
                          const std::vector<std::vector<Eigen::Vector3d>>& model_points,
+                         const std::vector<std::vector<Eigen::Vector2d>>& offset_directions,
+                         const std::vector<double>& offsets_px,
+                         RegistrationSettings::EdgeOffsetModel offset_model,
                          const std::vector<std::vector<const cv::Mat*>>& covering, double inlier_px,
                          bool residual_correlation) {
   BoneQuality quality;
   int inliers = 0;
+  int offset_inliers = 0;
   double squared = 0.0;
   // Per view, each sample's signed edge distance in contour order (NaN: not an inlier).
   std::vector<std::vector<double>> signed_distances(maps.size());
@@ -403,15 +409,23 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
     const imaging::EdgeMap& map = maps[v];
     const geometry::XrayCamera& camera = map.camera();
     const geometry::Pose camera_from_mesh = camera.worldFromCamera().inverse() * pose;
+    const double offset = v < offsets_px.size() ? offsets_px[v] * map.scale() : 0.0;
     std::vector<Eigen::Vector2d> pixels;
+    std::vector<Eigen::Vector2d> shifts;  // map pixels, per sample
     if (v < model_points.size() && !model_points[v].empty()) {
-      for (const Eigen::Vector3d& m : model_points[v]) {
+      const bool directed =
+          v < offset_directions.size() && offset_directions[v].size() == model_points[v].size();
+      for (std::size_t k = 0; k < model_points[v].size(); ++k) {
         Eigen::Vector2d pixel;
-        if (camera.project(camera_from_mesh * m, &pixel)) pixels.push_back(pixel);
+        if (!camera.project(camera_from_mesh * model_points[v][k], &pixel)) continue;
+        pixels.push_back(pixel);
+        shifts.push_back(directed ? Eigen::Vector2d(offset * offset_directions[v][k])
+                                  : Eigen::Vector2d::Zero());
       }
     } else {
       for (const auto& c : silhouette.contour(camera, camera_from_mesh, 1.0)) {
         pixels.push_back(c.pixel);
+        shifts.push_back(offset * offsetDirection(c, offset_model));
       }
     }
     const auto covered = [&](const Eigen::Vector2d& pixel) {
@@ -425,7 +439,8 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
       }
       return false;
     };
-    for (const Eigen::Vector2d& pixel : pixels) {
+    for (std::size_t k = 0; k < pixels.size(); ++k) {
+      const Eigen::Vector2d& pixel = pixels[k];
       signed_distances[v].push_back(std::numeric_limits<double>::quiet_NaN());  // a gap unless set
       if (covered(pixel)) {
         ++quality.covered_points;
@@ -435,6 +450,11 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
       double d = 0.0;
       double du = 0.0;
       double dv = 0.0;
+      const Eigen::Vector2d at_offset = pixel + shifts[k];
+      if (map.sample(at_offset.x(), at_offset.y(), &d, &du, &dv) &&
+          std::abs(d / map.scale()) <= inlier_px) {
+        ++offset_inliers;
+      }
       if (!map.sample(pixel.x(), pixel.y(), &d, &du, &dv)) continue;
       d /= map.scale();
       if (std::abs(d) <= inlier_px) {
@@ -449,6 +469,7 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
   }
   if (quality.contour_points > 0) {
     quality.contour_inlier_fraction = static_cast<double>(inliers) / quality.contour_points;
+    quality.offset_inlier_fraction = static_cast<double>(offset_inliers) / quality.contour_points;
   }
   if (inliers > 0) {
     quality.contour_rms_px = std::sqrt(squared / inliers);
@@ -1056,6 +1077,9 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
   // Per bone and view, the model points of the contour last extracted at the finest scale.
   std::vector<std::vector<std::vector<Eigen::Vector3d>>> finest_model_points(
       bones_.size(), std::vector<std::vector<Eigen::Vector3d>>(views.size()));
+  // ... and which way the edge offset moved each of them.
+  std::vector<std::vector<std::vector<Eigen::Vector2d>>> finest_offset_directions(
+      bones_.size(), std::vector<std::vector<Eigen::Vector2d>>(views.size()));
   result.diverged.assign(bones_.size(), false);
   // Edge offsets at the current scale's pixels, per bone and view; carried across outer
   // iterations and scales (converted), as they describe the image, not the step.
@@ -1187,8 +1211,13 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
                           contour.end());
             if (finest) {
               auto& kept = finest_model_points[b][v];
+              auto& directions = finest_offset_directions[b][v];
               kept.clear();
-              for (const auto& c : contour) kept.push_back(c.model_point);
+              directions.clear();
+              for (const auto& c : contour) {
+                kept.push_back(c.model_point);
+                directions.push_back(offsetDirection(c, settings_.edge_offset_model));
+              }
             }
             if (contour.empty()) continue;
             std::vector<Eigen::Vector3d> points;
@@ -1401,7 +1430,7 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
         if (gate != nullptr && !last_solve &&
             (summary.final_cost > gate->max_cost ||
              gate->deviation(result.poses) > gate->max_deviation)) {
-          Solution abandoned{std::move(result), {}, {}, true};
+          Solution abandoned{std::move(result), {}, {}, {}, true};
           return abandoned;
         }
       }
@@ -1411,7 +1440,8 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
   for (auto& per_view : result.edge_offsets_px) {
     for (double& o : per_view) o /= previous_scale;
   }
-  return Solution{std::move(result), std::move(finest_model_points), std::move(maps)};
+  return Solution{std::move(result), std::move(finest_model_points),
+                  std::move(finest_offset_directions), std::move(maps)};
 }
 
 std::vector<int> Registrar::relativeParents(const std::vector<bool>& diverged) const {
@@ -1471,8 +1501,11 @@ void Registrar::finish(const std::vector<ViewImage>& views, Solution* solution) 
       }
     }
     result.quality.push_back(imageQuality(
-        *bones_[b].silhouette, result.poses[b], maps, solution->contour_model_points[b], covering,
-        settings_.quality.inlier_distance_px, settings_.compute_covariance));
+        *bones_[b].silhouette, result.poses[b], maps, solution->contour_model_points[b],
+        solution->contour_offset_directions[b],
+        b < result.edge_offsets_px.size() ? result.edge_offsets_px[b] : std::vector<double>(),
+        settings_.edge_offset_model, covering, settings_.quality.inlier_distance_px,
+        settings_.compute_covariance));
     if (b < result.covariance_valid.size() && result.covariance_valid[b]) {
       // The solver counts every contour sample as independent; neighbours share blur, the
       // silhouette's shape and the edge offset's pattern along it (see BoneQuality).

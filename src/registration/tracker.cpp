@@ -12,6 +12,15 @@
 namespace fluoro_tracker {
 namespace registration {
 
+namespace {
+
+QualitySettings whereTheOutlineLies(QualitySettings settings) {
+  settings.inliers_at_edge_offset = false;
+  return settings;
+}
+
+}  // namespace
+
 Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometry::Pose> initial,
                  std::shared_ptr<const PoseSearch> search)
     : registrar_(std::move(registrar)),
@@ -20,7 +29,9 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
       edge_offsets_(
           registrar_ ? registrar_->settings().edge_offset_tracking : EdgeOffsetTrackingSettings(),
           registrar_ ? registrar_->settings().edge_offset_prior_px : 0.0),
-      inlier_history_(registrar_ ? registrar_->settings().quality : QualitySettings()) {
+      inlier_history_(registrar_ ? registrar_->settings().quality : QualitySettings()),
+      outline_history_(
+          whereTheOutlineLies(registrar_ ? registrar_->settings().quality : QualitySettings())) {
   if (!registrar_) throw InputError("tracker: no registrar");
   if (poses_.empty() && !search_) {
     throw InputError("tracker: no initial poses and no automatic search to find them");
@@ -129,6 +140,8 @@ void Tracker::accept(TrackedFrame* frame) {
   // The next frame's retry compares its own quality figures' status with this one's, before
   // either is compared with the bone's recent frames.
   previous_trouble_ = statusTrouble(frame->status);
+  std::vector<std::string> outline_status = frame->status;  // records the same frames
+  outline_history_.classify(frame->result.quality, &outline_status);
   inlier_history_.classify(frame->result.quality, &frame->status);
   const bool first = poses_.empty();
   bool all_ok = true;
@@ -156,7 +169,8 @@ std::vector<bool> Tracker::fitsWorseThanRecently(const RegistrationResult& resul
   // A second view sees the depth that the edge offset trades against in one.
   if (!(drop > 0.0) || views != 1) return worse;
   for (std::size_t b = 0; b < worse.size(); ++b) {
-    worse[b] = inlier_history_.fallsBelowMedian(b, result.quality[b].contour_inlier_fraction, drop);
+    worse[b] =
+        outline_history_.fallsBelowMedian(b, result.quality[b].contour_inlier_fraction, drop);
   }
   return worse;
 }

@@ -104,6 +104,7 @@ TrackingStatus statusMessage(const std_msgs::Header& header,
       bone.contour_rms_px = q.contour_rms_px;
       bone.out_of_plane_sd_m = q.out_of_plane_sd_m;
       bone.contour_spread_px = q.contour_spread_px;
+      bone.offset_inlier_fraction = q.offset_inlier_fraction;
     } else {
       bone.out_of_plane_sd_m = -1.0;
     }

@@ -391,7 +391,8 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
            "contour_rms_px,penetration_mm,envelope_violation,out_of_plane_sd_mm,"
            "rotation_sd_deg,status,error_x_mm,error_y_mm,error_z_mm,error_rx_deg,error_ry_deg,"
            "error_rz_deg,flexion_deg,adduction_deg,internal_rotation_deg,true_flexion_deg,"
-           "true_adduction_deg,true_internal_rotation_deg,edge_offset_px,contour_spread_px\n";
+           "true_adduction_deg,true_internal_rotation_deg,edge_offset_px,contour_spread_px,"
+           "offset_inlier_fraction\n";
   }
   std::vector<Tally> tallies(conditions.size());
   for (Tally& t : tallies) {
@@ -548,7 +549,7 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
             }
             const double* offset = firstViewEdgeOffset(result, b);
             *quality_csv << "," << (offset != nullptr ? *offset : 0.0) << "," << q.contour_spread_px
-                         << "\n";
+                         << "," << q.offset_inlier_fraction << "\n";
           }
         }
       }
@@ -943,6 +944,11 @@ int main(int argc, char** argv) {
       "ligament springs: residual per degree (and per mm) outside the knee envelope")(
       "covariance", po::bool_switch(&settings.compute_covariance),
       "estimate each bone's covariance (for the quality status's standard-deviation tests)")(
+      "inliers-at-edge-offset",
+      po::value(&settings.quality.inliers_at_edge_offset)
+          ->default_value(settings.quality.inliers_at_edge_offset),
+      "status: the inlier tests count each contour sample where its bone's estimated edge "
+      "offset puts it (true/false)")(
       "suspect-contour-rms-px",
       po::value(&settings.quality.suspect_contour_rms_px)
           ->default_value(settings.quality.suspect_contour_rms_px),

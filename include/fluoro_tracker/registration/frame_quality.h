@@ -20,6 +20,12 @@ struct BoneQuality {
   int covered_points = 0;
   // Of contour_points, the share within inlier_distance_px of an image edge.
   double contour_inlier_fraction = 0.0;
+  // The same share with each sample moved by the bone's estimated edge offset in its view, as
+  // the image terms move it (RegistrationResult::edge_offsets_px): where the displayed rim lies
+  // a pixel or more off the silhouette (a dense part under a rod, noise or a low resolution),
+  // a bone that fits has most of its outline beyond inlier_distance_px of the edge it fits,
+  // and only this share says so. Equal to contour_inlier_fraction without an offset model.
+  double offset_inlier_fraction = 0.0;
   double contour_rms_px = 0.0;  // RMS edge distance of the inliers (full-resolution pixels)
   // RMS of the inliers' edge distances about their mean in each view (full-resolution pixels):
   // the fit's scatter without its uniform part. A displayed rim lies a fraction of a pixel
@@ -63,6 +69,14 @@ struct JointQuality {
 // (InlierHistory).
 struct QualitySettings {
   double inlier_distance_px = 1.5;
+  // The inlier tests below (lost, suspect, and the InlierHistory's) count each sample at its
+  // edge offset (BoneQuality::offset_inlier_fraction) instead of where the outline lies.
+  // Choosing between solutions of one frame (resultRank, the retries, the search) always
+  // counts them where the outline lies: the search's refinements leave the offset unbounded,
+  // and a wrong hypothesis can buy inliers with it. So does the tracker's retry of a bone that
+  // fits worse than its recent frames (tracking_retry_inlier_drop), which is there to catch a
+  // bone sliding along the beam with its offset. Measured: README, "Tracking quality".
+  bool inliers_at_edge_offset = true;
   double lost_inlier_fraction = 0.3;
   double suspect_inlier_fraction = 0.6;
   // Inliers scattered like chance over the +-inlier_distance_px band have an RMS of
@@ -109,6 +123,9 @@ double integratedAutocorrelation(const std::vector<std::vector<double>>& sequenc
 // are gaps; a sequence of one value deviates by nothing), over all the finite values; 0 without
 // any. Of each view's inliers' edge distances: BoneQuality::contour_spread_px.
 double rmsAboutSequenceMeans(const std::vector<std::vector<double>>& sequences);
+
+// The inlier fraction the status tests use (QualitySettings::inliers_at_edge_offset).
+double statusInlierFraction(const BoneQuality& quality, const QualitySettings& settings);
 
 // A joint's status from its two bones': lost if either is, ok if both are, else suspect.
 std::string combinedStatus(const std::string& parent, const std::string& child);

@@ -35,6 +35,10 @@ class InlierHistory {
   // fractions of the bones not lost. `quality` and `status` are per bone.
   void classify(const std::vector<BoneQuality>& quality, std::vector<std::string>* status);
 
+  // The fraction of a bone's figures that the history records and compares: the one the
+  // status tests use (statusInlierFraction).
+  double fractionOf(const BoneQuality& quality) const;
+
   // The median of a bone's recorded fractions (the upper middle one of an even count; NaN
   // without any).
   double median(std::size_t bone) const;
@@ -56,6 +60,7 @@ class InlierHistory {
   // reference() given the bone's median `centre`.
   double referenceAround(std::size_t bone, double centre) const;
 
+  QualitySettings quality_;
   double drop_;
   double spread_;
   std::size_t window_;

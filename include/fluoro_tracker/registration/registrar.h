@@ -575,6 +575,8 @@ class Registrar {
   struct Solution {
     RegistrationResult result;
     std::vector<std::vector<std::vector<Eigen::Vector3d>>> contour_model_points;
+    // Per sample of contour_model_points: which way (map pixels) the edge offset moves it.
+    std::vector<std::vector<std::vector<Eigen::Vector2d>>> contour_offset_directions;
     std::vector<imaging::EdgeMap> maps;
     bool abandoned = false;  // stopped by a CandidateGate: not a solution
   };

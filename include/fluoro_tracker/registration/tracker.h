@@ -104,6 +104,10 @@ class Tracker {
   int previous_trouble_ = 0;  // statusTrouble of the last frame taken (its classifyBones status)
   EdgeOffsetFilter edge_offsets_;  // each bone's edge offset, carried between frames
   InlierHistory inlier_history_;   // each bone's recent inlier fractions (its status)
+  // The same of the fractions counted where the outline lies, for the retry of a bone that fits
+  // worse than recently (fitsWorseThanRecently): a bone sliding along the beam with its edge
+  // offset keeps its fraction at the offset, not this one.
+  InlierHistory outline_history_;
 };
 
 }  // namespace registration

@@ -35,14 +35,15 @@ TEST(PosesCsv, RoundTripKeepsEveryField) {
   }
 }
 
-// The quality columns follow `status`; the spread came last (stop 53) so that readers of the
-// earlier ones by position still find them.
-TEST(PosesCsv, QualityColumnsFollowTheStatusWithTheSpreadLast) {
+// The quality columns follow `status`; the spread (stop 53) and the inlier fraction at the edge
+// offset (stop 55) came last so that readers of the earlier ones by position still find them.
+TEST(PosesCsv, QualityColumnsFollowTheStatusWithTheNewestLast) {
   TempDir dir;
   registration::BoneQuality quality;
   quality.contour_inlier_fraction = 0.95;
   quality.contour_rms_px = 0.9;
   quality.contour_spread_px = 0.3;
+  quality.offset_inlier_fraction = 0.97;
   quality.out_of_plane_sd_m = 0.0012;
   io::writePosesCsv(dir.file("q.csv"),
                     {{0, 1.0, "tibia", geometry::Pose::Identity(), "ok", quality}});
@@ -53,8 +54,8 @@ TEST(PosesCsv, QualityColumnsFollowTheStatusWithTheSpreadLast) {
   std::getline(in, row);
   EXPECT_EQ(header, std::string(io::kPosesCsvHeader) +
                         ",contour_inlier_fraction,contour_rms_px,out_of_plane_sd_mm,"
-                        "contour_spread_px");
-  EXPECT_NE(row.find(",ok,0.9500,0.9000,1.2000,0.3000"), std::string::npos) << row;
+                        "contour_spread_px,offset_inlier_fraction");
+  EXPECT_NE(row.find(",ok,0.9500,0.9000,1.2000,0.3000,0.9700"), std::string::npos) << row;
   EXPECT_EQ(io::readPosesCsv(dir.file("q.csv")).size(), 1u);
 }
 

@@ -378,7 +378,8 @@ registration:
   depth_retry: {enabled: false, shifts_mm: [-10, 10, -25], light_below_inlier_fraction: 0.8}
   quality: {relative_inlier_drop: 0.2, relative_inlier_spread: 2.5, relative_inlier_window: 10,
             relative_inlier_min_frames: 5, relative_inlier_trend_frames: 6,
-            suspect_contour_spread_px: 0.6, suspect_contour_rms_px: 1.2}
+            suspect_contour_spread_px: 0.6, suspect_contour_rms_px: 1.2,
+            inliers_at_edge_offset: false}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_EQ(c.registration.parameterisation,
@@ -420,6 +421,7 @@ registration:
   EXPECT_EQ(c.registration.quality.relative_inlier_trend_frames, 6);
   EXPECT_DOUBLE_EQ(c.registration.quality.suspect_contour_spread_px, 0.6);
   EXPECT_DOUBLE_EQ(c.registration.quality.suspect_contour_rms_px, 1.2);
+  EXPECT_FALSE(c.registration.quality.inliers_at_edge_offset);
   EXPECT_DOUBLE_EQ(c.registration.quality.suspect_inlier_fraction,
                    registration::QualitySettings().suspect_inlier_fraction);
   EXPECT_EQ(c.registration.scales, (std::vector<double>{0.25, 1.0}));

@@ -19,8 +19,8 @@ registration::RegistrationResult twoBones(double inliers0, double inliers1) {
   r.poses.assign(2, geometry::Pose::Identity());
   r.diverged.assign(2, false);
   r.quality.resize(2);
-  r.quality[0].contour_inlier_fraction = inliers0;
-  r.quality[1].contour_inlier_fraction = inliers1;
+  r.quality[0].contour_inlier_fraction = r.quality[0].offset_inlier_fraction = inliers0;
+  r.quality[1].contour_inlier_fraction = r.quality[1].offset_inlier_fraction = inliers1;
   r.quality[0].contour_rms_px = r.quality[1].contour_rms_px = 0.4;
   r.quality[0].contour_spread_px = r.quality[1].contour_spread_px = 0.3;
   return r;
@@ -59,6 +59,20 @@ TEST(FrameQuality, ContourRmsIsTestedOnlyWhenAsked) {
   s.suspect_contour_spread_px = 0.0;  // off
   offset.quality[1].contour_spread_px = 0.85;
   EXPECT_EQ(classifyBones(offset, s)[1], "ok");
+}
+
+// The inlier tests count each sample where its bone's edge offset puts it unless told to count
+// it where the outline lies; choosing between solutions always counts where the outline lies.
+TEST(FrameQuality, InlierTestsCountAtTheEdgeOffsetUnlessToldOtherwise) {
+  registration::QualitySettings s;
+  auto r = twoBones(0.95, 0.95);
+  r.quality[0].contour_inlier_fraction = 0.5;  // the rim more than 1.5 px off the outline
+  r.quality[1].contour_inlier_fraction = 0.2;
+  EXPECT_EQ(classifyBones(r, s), (std::vector<std::string>{"ok", "ok"}));
+  EXPECT_DOUBLE_EQ(registration::resultRank(r, s).second, -0.7);
+  s.inliers_at_edge_offset = false;
+  EXPECT_EQ(classifyBones(r, s), (std::vector<std::string>{"suspect", "lost"}));
+  EXPECT_DOUBLE_EQ(registration::statusInlierFraction(r.quality[0], s), 0.5);
 }
 
 TEST(FrameQuality, AnImplausibleJointMakesBothBonesSuspect) {

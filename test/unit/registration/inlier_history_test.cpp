@@ -17,7 +17,9 @@ namespace {
 
 std::vector<BoneQuality> fractions(std::vector<double> values) {
   std::vector<BoneQuality> quality(values.size());
-  for (std::size_t b = 0; b < values.size(); ++b) quality[b].contour_inlier_fraction = values[b];
+  for (std::size_t b = 0; b < values.size(); ++b) {
+    quality[b].contour_inlier_fraction = quality[b].offset_inlier_fraction = values[b];
+  }
   return quality;
 }
 
@@ -136,4 +138,26 @@ TEST(InlierHistory, FollowsAFractionThatDriftsWithThePose) {
   for (int k = 0; k < 8; ++k) classify(&rising, {0.6 + 0.05 * k}, {"ok"});
   // Capped at the best frame (0.95), not carried on to 1.0.
   EXPECT_NEAR(rising.reference(0), 0.95, 1e-9);
+}
+
+// The history records and compares the fraction the status tests use: by default each sample
+// counted where its bone's edge offset puts it (QualitySettings::inliers_at_edge_offset).
+TEST(InlierHistory, ComparesTheFractionTheStatusTestsUse) {
+  const auto at = [](double outline, double offset) {
+    BoneQuality q;
+    q.contour_inlier_fraction = outline;
+    q.offset_inlier_fraction = offset;
+    return std::vector<BoneQuality>{q};
+  };
+  QualitySettings where_the_outline_lies;
+  where_the_outline_lies.inliers_at_edge_offset = false;
+  for (const bool at_offset : {true, false}) {
+    InlierHistory history(at_offset ? QualitySettings() : where_the_outline_lies);
+    std::vector<std::string> status = {"ok"};
+    for (int k = 0; k < 5; ++k) history.classify(at(0.95, 0.95), &status);
+    // The rim moved off the outline by more than the inlier distance, the fit as good as before.
+    history.classify(at(0.5, 0.93), &status);
+    EXPECT_EQ(status[0], at_offset ? "ok" : "suspect");
+    EXPECT_DOUBLE_EQ(history.fractionOf(at(0.5, 0.93)[0]), at_offset ? 0.93 : 0.5);
+  }
 }
