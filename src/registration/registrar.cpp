@@ -447,21 +447,25 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
         continue;
       }
       ++quality.contour_points;
+      // Whether a sample at this position lies within inlier_px of an edge; its edge distance
+      // (full-resolution pixels) in `distance`.
+      const auto within = [&](const Eigen::Vector2d& at, double* distance) {
+        double du = 0.0;
+        double dv = 0.0;
+        if (!map.sample(at.x(), at.y(), distance, &du, &dv)) return false;
+        *distance /= map.scale();
+        return std::abs(*distance) <= inlier_px;
+      };
       double d = 0.0;
-      double du = 0.0;
-      double dv = 0.0;
-      const Eigen::Vector2d at_offset = pixel + shifts[k];
-      if (map.sample(at_offset.x(), at_offset.y(), &d, &du, &dv) &&
-          std::abs(d / map.scale()) <= inlier_px) {
-        ++offset_inliers;
-      }
-      if (!map.sample(pixel.x(), pixel.y(), &d, &du, &dv)) continue;
-      d /= map.scale();
-      if (std::abs(d) <= inlier_px) {
+      const bool inlier = within(pixel, &d);
+      if (inlier) {
         ++inliers;
         squared += d * d;
         signed_distances[v].back() = d;
       }
+      // Without an offset (none estimated, or the offset model kNone) the same sample.
+      double offset_d = 0.0;
+      if (shifts[k].isZero() ? inlier : within(pixel + shifts[k], &offset_d)) ++offset_inliers;
     }
   }
   if (residual_correlation) {

@@ -170,7 +170,7 @@ std::vector<bool> Tracker::fitsWorseThanRecently(const RegistrationResult& resul
   if (!(drop > 0.0) || views != 1) return worse;
   for (std::size_t b = 0; b < worse.size(); ++b) {
     worse[b] =
-        outline_history_.fallsBelowMedian(b, result.quality[b].contour_inlier_fraction, drop);
+        outline_history_.fallsBelowMedian(b, outline_history_.fractionOf(result.quality[b]), drop);
   }
   return worse;
 }
