@@ -181,8 +181,8 @@ registration::PoseSearchSettings readSearchSettings(const YAML::Node& node,
                      "refined_per_bone", "wide_screening_px", "wide_refined_per_bone",
                      "envelope_extra_refined", "mirror_hypotheses", "min_depth_m", "max_depth_m",
                      "refine_scales", "refine_robust_scale_px", "edge_high_fraction",
-                     "retry_edge_high_fraction", "envelope_penalty_per_unit",
-                     "penetration_penalty_per_mm"});
+                     "retry_edge_high_fraction", "rescue_depth_factors",
+                     "envelope_penalty_per_unit", "penetration_penalty_per_mm"});
   section.read("direction_step_deg", &s.direction_step_deg);
   section.read("roll_step_deg", &s.roll_step_deg);
   section.read("matches_per_bone", &s.matches_per_bone);
@@ -198,6 +198,7 @@ registration::PoseSearchSettings readSearchSettings(const YAML::Node& node,
   section.read("refine_robust_scale_px", &s.refine_robust_scale_px);
   section.read("edge_high_fraction", &s.edge_high_fraction);
   section.read("retry_edge_high_fraction", &s.retry_edge_high_fraction);
+  section.read("rescue_depth_factors", &s.rescue_depth_factors);
   section.read("envelope_penalty_per_unit", &s.envelope_penalty_per_unit);
   section.read("penetration_penalty_per_mm", &s.penetration_penalty_per_mm);
   try {

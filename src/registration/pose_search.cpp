@@ -205,6 +205,12 @@ void PoseSearchSettings::validate() const {
     if (!(s > 0.0 && s <= 1.0)) throw InputError("registration search: refine_scales in (0, 1]");
   }
   if (finalists < 1) throw InputError("registration search: finalists must be >= 1");
+  for (const double factor : rescue_depth_factors) {
+    if (!(factor > 0.5 && factor < 2.0) || factor == 1.0) {
+      throw InputError(
+          "registration search: rescue_depth_factors must lie in (0.5, 2) and not be 1");
+    }
+  }
   if (edge_matches_per_bone < 0 || edge_match_regions < 0 ||
       !(edge_roll_step_deg > 0.5 && edge_roll_step_deg <= 90.0) ||
       !(edge_position_step_px >= 1.0)) {
@@ -324,22 +330,93 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
   }
   if (passes_.size() < 2) {
     if (first_error) throw *first_error;
-    return finish(std::move(*first), 1);
+    return finish(rescueAlongSightLines(views, std::move(*first)), 1);
   }
   PoseSearchResult retry;
   try {
     retry = searchPass(passes_[1], views, seeds, blobs);
   } catch (const InputError&) {
     if (first_error) throw *first_error;
-    return finish(std::move(*first), 2);
+    return finish(rescueAlongSightLines(views, std::move(*first)), 2);
   }
-  if (first_error) return finish(std::move(retry), 2);
+  if (first_error) return finish(rescueAlongSightLines(views, std::move(retry)), 2);
   // Fewer bones suspect or lost first; between equal statuses, the better explanation.
   const int retry_trouble = statusTrouble(retry.status);
   const int first_trouble = statusTrouble(first->status);
   const bool retry_better = retry_trouble < first_trouble ||
                             (retry_trouble == first_trouble && retry.score > first->score);
-  return finish(retry_better ? std::move(retry) : std::move(*first), 2);
+  return finish(rescueAlongSightLines(views, retry_better ? std::move(retry) : std::move(*first)),
+                2);
+}
+
+PoseSearchResult PoseSearch::rescueAlongSightLines(const std::vector<ViewImage>& views,
+                                                   PoseSearchResult found) const {
+  int best_trouble = statusTrouble(found.status);
+  if (best_trouble == 0 || settings_.rescue_depth_factors.empty()) return found;
+  const geometry::Pose& world_from_camera = views.front().camera.worldFromCamera();
+  const geometry::Pose camera_from_world = world_from_camera.inverse();
+  const std::vector<geometry::Pose> from = found.registration.poses;
+  bool rescued = false;
+  for (const double factor : settings_.rescue_depth_factors) {
+    // Each bone moved along its line of sight through the source: its projected place stays,
+    // its size changes by 1 / factor.
+    std::vector<geometry::Pose> starts;
+    for (const geometry::Pose& pose : from) {
+      geometry::Pose in_camera = camera_from_world * pose;
+      in_camera.translation() *= factor;
+      starts.push_back(world_from_camera * in_camera);
+    }
+    RegistrationResult registered;
+    try {
+      registered = registrar_->solve(views, starts);
+    } catch (const InputError&) {
+      continue;  // a start outside the views
+    }
+    std::vector<std::string> status = classifyBones(registered, registrar_->settings().quality);
+    const int trouble = statusTrouble(status);
+    const double score = finalistScore(registered);
+    // Only a result the status doubts less replaces the search's: at equal statuses a higher
+    // score is no sign of a truer pose (a tracked trial's first frame, rescued at its tray's
+    // unchanged suspect status, set its tracking on another path that lost two frames).
+    if (trouble < best_trouble || (trouble == best_trouble && rescued && score > found.score)) {
+      rescued = true;
+      best_trouble = trouble;
+      found.registration = std::move(registered);
+      found.status = std::move(status);
+      found.score = score;
+      found.rescue_depth_factor = factor;
+    }
+  }
+  return found;
+}
+
+double PoseSearch::jointPenalty(double envelope_violation, double penetration_m) const {
+  return settings_.envelope_penalty_per_unit * envelope_violation +
+         settings_.penetration_penalty_per_mm * 1e3 * penetration_m;
+}
+
+double PoseSearch::finalistScore(const RegistrationResult& registered) const {
+  double score = 0.0;
+  for (std::size_t b = 0; b < registered.poses.size(); ++b) {
+    score += registered.diverged[b] ? 0.0 : registered.quality[b].contour_inlier_fraction;
+  }
+  for (std::size_t j = 0; j < registered.joints.size(); ++j) {
+    const JointResult& joint = registered.joints[j];
+    score -= jointPenalty(joint.quality.envelope_violation, joint.quality.penetration_m);
+    // Between equally good fits (a mirror pose), the joint nearer neutral (see
+    // Registrar's mirror check).
+    // The neutral rotation that comes with flexion is the tibia's (a knee's).
+    const kinematics::JointType type = registrar_->joints()[j].type;
+    if (kinematics::hasKneeFrameCoordinates(type)) {
+      score -= settings_.neutral_penalty_per_unit *
+               neutralDeviation(
+                   registrar_->joints()[j].ligaments, joint.coordinates,
+                   type == kinematics::JointType::kKnee
+                       ? registrar_->settings().mirror_check.neutral_internal_rotation_per_flexion
+                       : 0.0);
+    }
+  }
+  return score;
 }
 
 PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<ViewImage>& views,
@@ -598,10 +675,6 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
   // over the few hypotheses per bone); the best few are registered jointly, with the joints'
   // contact and ligament terms, and the result that best explains the image inside the
   // envelopes wins: a wrong hypothesis pulled into the envelope loses its image support.
-  const auto jointPenalty = [&](double envelope_violation, double penetration_m) {
-    return settings_.envelope_penalty_per_unit * envelope_violation +
-           settings_.penetration_penalty_per_mm * 1e3 * penetration_m;
-  };
   std::vector<std::pair<double, std::vector<std::size_t>>> combinations;
   std::vector<std::size_t> choice(bones, 0);
   while (true) {
@@ -639,26 +712,7 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
     } catch (const InputError&) {
       continue;
     }
-    double score = 0.0;
-    for (std::size_t b = 0; b < bones; ++b) {
-      score += registered.diverged[b] ? 0.0 : registered.quality[b].contour_inlier_fraction;
-    }
-    for (std::size_t j = 0; j < registered.joints.size(); ++j) {
-      const JointResult& joint = registered.joints[j];
-      score -= jointPenalty(joint.quality.envelope_violation, joint.quality.penetration_m);
-      // Between equally good fits (a mirror pose), the joint nearer neutral (see
-      // Registrar's mirror check).
-      // The neutral rotation that comes with flexion is the tibia's (a knee's).
-      const kinematics::JointType type = registrar_->joints()[j].type;
-      if (kinematics::hasKneeFrameCoordinates(type)) {
-        score -= settings_.neutral_penalty_per_unit *
-                 neutralDeviation(
-                     registrar_->joints()[j].ligaments, joint.coordinates,
-                     type == kinematics::JointType::kKnee
-                         ? registrar_->settings().mirror_check.neutral_internal_rotation_per_flexion
-                         : 0.0);
-      }
-    }
+    const double score = finalistScore(registered);
     if (score > best_score) {
       best_score = score;
       found.registration = std::move(registered);

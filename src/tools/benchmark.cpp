@@ -50,6 +50,16 @@ namespace {
 using registration::PoseError;
 using registration::poseError;
 
+// "a,b,c" as numbers; `option` names the option in errors.
+std::vector<double> commaSeparatedNumbers(const std::string& text, const std::string& option) {
+  std::vector<double> numbers;
+  std::stringstream list(text);
+  for (std::string item; std::getline(list, item, ',');) {
+    numbers.push_back(io::detail::parseNumbers(item, 1, option)[0]);
+  }
+  return numbers;
+}
+
 Pose perturb(const Pose& truth, const Pose& camera_from_fixed, std::mt19937_64* rng,
              double in_plane_mm, double out_of_plane_mm, double rotation_deg) {
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
@@ -713,6 +723,7 @@ int main(int argc, char** argv) {
   registration::RegistrationSettings settings;
   std::vector<double> scales;
   std::string depth_retry_shifts;
+  std::string rescue_depth_factors;
   std::string conditions_option = "image,contact";
   std::string edge_offset_model = "uniform";
   std::string parameterisation = "absolute";
@@ -924,6 +935,10 @@ int main(int argc, char** argv) {
           ->default_value(perturbation.search_settings.envelope_extra_refined),
       "search: more of a bone's starts through its joint's envelope refined when none of its "
       "own fits (registration: search: envelope_extra_refined)")(
+      "rescue-depth-factors", po::value(&rescue_depth_factors),
+      "search: a result with a bone not ok is solved again from its bones moved along their "
+      "lines of sight to these fractions of their distance, comma-separated ('none': no "
+      "rescue; registration: search: rescue_depth_factors)")(
       "trial-set", po::value(&trial_set)->default_value(trial_set),
       "good (1024x1024) or poor (768x768, noisier, a metal rod across the tibia)")(
       "simulator-config", po::value(&simulator_config),
@@ -1008,13 +1023,16 @@ int main(int argc, char** argv) {
     }
     if (!scales.empty()) settings.scales = scales;
     if (!depth_retry_shifts.empty()) {
-      settings.depth_retry.shifts_mm.clear();
-      std::stringstream list(depth_retry_shifts);
-      for (std::string item; std::getline(list, item, ',');) {
-        settings.depth_retry.shifts_mm.push_back(
-            io::detail::parseNumbers(item, 1, "--depth-retry-shifts-mm")[0]);
-      }
+      settings.depth_retry.shifts_mm =
+          commaSeparatedNumbers(depth_retry_shifts, "--depth-retry-shifts-mm");
     }
+    if (rescue_depth_factors == "none") {
+      perturbation.search_settings.rescue_depth_factors.clear();
+    } else if (!rescue_depth_factors.empty()) {
+      perturbation.search_settings.rescue_depth_factors =
+          commaSeparatedNumbers(rescue_depth_factors, "--rescue-depth-factors");
+    }
+    perturbation.search_settings.validate();
     if (vm.count("staged")) {
       registration::RegistrationStage envelope;
       envelope.outer_iterations = 2;

@@ -82,6 +82,17 @@ struct PoseSearchSettings {
   // threshold serves (clutter) is searched once and keeps its result; a bright implant whose
   // faint rims the default loses gets the lower threshold. 0: no second pass.
   double retry_edge_high_fraction = 0.15;
+  // When the result still leaves a bone suspect or lost, the final joint registration is solved
+  // again from it with every bone moved along its line of sight to each of these fractions of
+  // its distance from the source (its projected place kept, its size changed by 1 / factor),
+  // and the one with the fewest bones in doubt, then the best score, replaces the result if
+  // fewer of its bones are in doubt. The registrar's own depth retry moves one registration's
+  // start by 15 mm; a search's result can settle 30-90 mm along the beam with both bones (a
+  // region's size misjudged), in a false minimum that a start a few per cent nearer or farther
+  // leaves. Empty: none. Measured with
+  // `benchmark --protocol search --trials 4 --frames 10 --conditions contact+ligaments`: see
+  // the README ("Automatic initialisation").
+  std::vector<double> rescue_depth_factors = {0.91, 0.94, 0.97, 1.03, 1.06, 1.09};
   // Choosing among the refined hypotheses: each bone's contour inlier fraction, minus these
   // per unit of a joint's ligament envelope violation (deg or mm) and penetration (mm).
   double envelope_penalty_per_unit = 0.02;
@@ -104,6 +115,9 @@ struct PoseSearchResult {
   // penetration, neutral deviation), as the search ranks its finalists.
   double score = 0.0;
   int passes = 1;  // 2 when the retry pass ran (PoseSearchSettings::retry_edge_high_fraction)
+  // The rescue's factor whose registration was kept (PoseSearchSettings::rescue_depth_factors);
+  // 1 when the search's own result was.
+  double rescue_depth_factor = 1.0;
   double seconds = 0.0;
 };
 
@@ -146,6 +160,15 @@ class PoseSearch {
   };
   std::vector<JointLibrary> joint_libraries_;
 
+  // `found` solved again from its poses moved along the lines of sight
+  // (PoseSearchSettings::rescue_depth_factors) when a bone is not ok; the better is returned.
+  PoseSearchResult rescueAlongSightLines(const std::vector<ViewImage>& views,
+                                         PoseSearchResult found) const;
+  // A joint's penalty in the search's scores: envelope violation and penetration.
+  double jointPenalty(double envelope_violation, double penetration_m) const;
+  // How a jointly registered result ranks among the finalists: its bones' contour inlier
+  // fractions minus its joints' penalties and neutral deviation.
+  double finalistScore(const RegistrationResult& registered) const;
   // One pass of the search with `pass`'s edges, over the first view's candidate regions.
   PoseSearchResult searchPass(const EdgePass& pass, const std::vector<ViewImage>& views,
                               const std::vector<geometry::Pose>& seeds,

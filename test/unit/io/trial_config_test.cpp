@@ -629,6 +629,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.search.screening_scale, search.screening_scale);
   EXPECT_DOUBLE_EQ(c.search.edge_high_fraction, search.edge_high_fraction);
   EXPECT_DOUBLE_EQ(c.search.retry_edge_high_fraction, search.retry_edge_high_fraction);
+  EXPECT_EQ(c.search.rescue_depth_factors, search.rescue_depth_factors);
 }
 
 TEST(TrialConfig, SearchSectionFillsTheSettingsAndRejectsBadValues) {
@@ -638,7 +639,8 @@ bones:
   - {name: femur, mesh: f.stl}
 registration:
   search: {refined_per_bone: 3, wide_refined_per_bone: 0, wide_screening_px: 3.0,
-           envelope_extra_refined: 5, edge_high_fraction: 0.2, retry_edge_high_fraction: 0}
+           envelope_extra_refined: 5, edge_high_fraction: 0.2, retry_edge_high_fraction: 0,
+           rescue_depth_factors: [0.95, 1.05]}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_EQ(c.search.refined_per_bone, 3);
@@ -647,9 +649,13 @@ registration:
   EXPECT_DOUBLE_EQ(c.search.wide_screening_px, 3.0);
   EXPECT_DOUBLE_EQ(c.search.edge_high_fraction, 0.2);
   EXPECT_DOUBLE_EQ(c.search.retry_edge_high_fraction, 0.0);
+  EXPECT_EQ(c.search.rescue_depth_factors, (std::vector<double>{0.95, 1.05}));
   expectRegistrationRejected("{search: {wide_screening_px: 0.5}}", "wide_screening_px >= 1");
   expectRegistrationRejected("{search: {envelope_extra_refined: -1}}", "envelope_extra_refined");
   expectRegistrationRejected("{search: {edge_high_fraction: 0}}", "edge_high_fraction");
   expectRegistrationRejected("{search: {retry_edge_high_fraction: 1.5}}",
                              "retry_edge_high_fraction");
+  expectRegistrationRejected("{search: {rescue_depth_factors: [0.9, 1.0]}}",
+                             "rescue_depth_factors");
+  expectRegistrationRejected("{search: {rescue_depth_factors: [-1.1]}}", "rescue_depth_factors");
 }
