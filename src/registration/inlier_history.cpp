@@ -89,8 +89,17 @@ void InlierHistory::classify(const std::vector<BoneQuality>& quality,
         bone_status = "suspect";
       }
     }
-    if (bone_status == "lost") continue;
-    recent_[b].push_back(fraction);
+  }
+  record(quality, *status);
+}
+
+void InlierHistory::record(const std::vector<BoneQuality>& quality,
+                           const std::vector<std::string>& status) {
+  const std::size_t bones = std::min(quality.size(), status.size());
+  if (recent_.size() < bones) recent_.resize(bones);
+  for (std::size_t b = 0; b < bones; ++b) {
+    if (status[b] == "lost") continue;
+    recent_[b].push_back(fractionOf(quality[b]));
     if (recent_[b].size() > window_) recent_[b].pop_front();
   }
 }

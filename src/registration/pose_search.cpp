@@ -310,7 +310,9 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
     throw InputError("pose search: " + std::to_string(seeds.size()) + " seed pose(s) for " +
                      std::to_string(bones) + " bone(s)");
   }
+  // Every result a search returns, rescued first if a bone is still in doubt.
   const auto finish = [&](PoseSearchResult found, int passes) {
+    found = rescueAlongSightLines(views, std::move(found));
     found.passes = passes;
     found.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return found;
@@ -330,23 +332,22 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
   }
   if (passes_.size() < 2) {
     if (first_error) throw *first_error;
-    return finish(rescueAlongSightLines(views, std::move(*first)), 1);
+    return finish(std::move(*first), 1);
   }
   PoseSearchResult retry;
   try {
     retry = searchPass(passes_[1], views, seeds, blobs);
   } catch (const InputError&) {
     if (first_error) throw *first_error;
-    return finish(rescueAlongSightLines(views, std::move(*first)), 2);
+    return finish(std::move(*first), 2);
   }
-  if (first_error) return finish(rescueAlongSightLines(views, std::move(retry)), 2);
+  if (first_error) return finish(std::move(retry), 2);
   // Fewer bones suspect or lost first; between equal statuses, the better explanation.
   const int retry_trouble = statusTrouble(retry.status);
   const int first_trouble = statusTrouble(first->status);
   const bool retry_better = retry_trouble < first_trouble ||
                             (retry_trouble == first_trouble && retry.score > first->score);
-  return finish(rescueAlongSightLines(views, retry_better ? std::move(retry) : std::move(*first)),
-                2);
+  return finish(retry_better ? std::move(retry) : std::move(*first), 2);
 }
 
 PoseSearchResult PoseSearch::rescueAlongSightLines(const std::vector<ViewImage>& views,

@@ -439,6 +439,15 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
       }
       return false;
     };
+    // Whether a sample at this position lies within inlier_px of an edge; its edge distance
+    // (full-resolution pixels) in `distance`.
+    const auto within = [&](const Eigen::Vector2d& at, double* distance) {
+      double du = 0.0;
+      double dv = 0.0;
+      if (!map.sample(at.x(), at.y(), distance, &du, &dv)) return false;
+      *distance /= map.scale();
+      return std::abs(*distance) <= inlier_px;
+    };
     for (std::size_t k = 0; k < pixels.size(); ++k) {
       const Eigen::Vector2d& pixel = pixels[k];
       signed_distances[v].push_back(std::numeric_limits<double>::quiet_NaN());  // a gap unless set
@@ -447,15 +456,6 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
         continue;
       }
       ++quality.contour_points;
-      // Whether a sample at this position lies within inlier_px of an edge; its edge distance
-      // (full-resolution pixels) in `distance`.
-      const auto within = [&](const Eigen::Vector2d& at, double* distance) {
-        double du = 0.0;
-        double dv = 0.0;
-        if (!map.sample(at.x(), at.y(), distance, &du, &dv)) return false;
-        *distance /= map.scale();
-        return std::abs(*distance) <= inlier_px;
-      };
       double d = 0.0;
       const bool inlier = within(pixel, &d);
       if (inlier) {

@@ -140,8 +140,7 @@ void Tracker::accept(TrackedFrame* frame) {
   // The next frame's retry compares its own quality figures' status with this one's, before
   // either is compared with the bone's recent frames.
   previous_trouble_ = statusTrouble(frame->status);
-  std::vector<std::string> outline_status = frame->status;  // records the same frames
-  outline_history_.classify(frame->result.quality, &outline_status);
+  outline_history_.record(frame->result.quality, frame->status);  // the same frames
   inlier_history_.classify(frame->result.quality, &frame->status);
   const bool first = poses_.empty();
   bool all_ok = true;

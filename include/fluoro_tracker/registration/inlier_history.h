@@ -35,6 +35,9 @@ class InlierHistory {
   // fractions of the bones not lost. `quality` and `status` are per bone.
   void classify(const std::vector<BoneQuality>& quality, std::vector<std::string>* status);
 
+  // Only records the fractions of the bones not lost, as classify does after its test.
+  void record(const std::vector<BoneQuality>& quality, const std::vector<std::string>& status);
+
   // The fraction of a bone's figures that the history records and compares: the one the
   // status tests use (statusInlierFraction).
   double fractionOf(const BoneQuality& quality) const;

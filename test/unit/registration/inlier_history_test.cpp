@@ -161,3 +161,26 @@ TEST(InlierHistory, ComparesTheFractionTheStatusTestsUse) {
     EXPECT_DOUBLE_EQ(history.fractionOf(at(0.5, 0.93)[0]), at_offset ? 0.93 : 0.5);
   }
 }
+
+// record() keeps the same history as classify() without testing the frame: the tracker's second
+// history (counted where the outline lies) only records the frames the status history records.
+TEST(InlierHistory, RecordsTheFramesClassifyWouldWithoutTestingThem) {
+  InlierHistory classified{QualitySettings()};
+  InlierHistory recorded{QualitySettings()};
+  const std::vector<std::vector<double>> frames = {
+      {0.98, 0.9}, {0.99, 0.5}, {0.97, 0.91}, {0.5, 0.9}};
+  const std::vector<std::vector<std::string>> statuses = {
+      {"ok", "ok"}, {"ok", "lost"}, {"ok", "ok"}, {"ok", "ok"}};
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    std::vector<std::string> status = statuses[f];
+    classified.classify(fractions(frames[f]), &status);
+    recorded.record(fractions(frames[f]), statuses[f]);
+  }
+  EXPECT_EQ(classify(&classified, {0.98, 0.9}, {"ok", "ok"}),
+            classify(&recorded, {0.98, 0.9}, {"ok", "ok"}));
+  for (std::size_t b = 0; b < 2; ++b) {
+    EXPECT_DOUBLE_EQ(recorded.median(b), classified.median(b)) << b;
+  }
+  EXPECT_DOUBLE_EQ(recorded.median(1), 0.9);   // the lost frame's 0.5 left out
+  EXPECT_DOUBLE_EQ(recorded.median(0), 0.98);  // 0.98 0.99 0.97 0.5 (suspect, recorded) 0.98
+}
