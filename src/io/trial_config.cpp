@@ -177,12 +177,28 @@ registration::PoseSearchSettings readSearchSettings(const YAML::Node& node,
                                                     const std::string& context) {
   registration::PoseSearchSettings s;
   const YamlSection section(node, context);
-  section.allowOnly({"direction_step_deg", "roll_step_deg", "matches_per_bone", "screening_scale",
-                     "refined_per_bone", "wide_screening_px", "wide_refined_per_bone",
-                     "envelope_extra_refined", "mirror_hypotheses", "min_depth_m", "max_depth_m",
-                     "refine_scales", "refine_robust_scale_px", "edge_high_fraction",
-                     "retry_edge_high_fraction", "rescue_depth_factors",
-                     "envelope_penalty_per_unit", "penetration_penalty_per_mm"});
+  section.allowOnly({"direction_step_deg",
+                     "roll_step_deg",
+                     "matches_per_bone",
+                     "screening_scale",
+                     "refined_per_bone",
+                     "wide_screening_px",
+                     "wide_refined_per_bone",
+                     "envelope_extra_refined",
+                     "fine_envelope",
+                     "fine_envelope_flexion_step_deg",
+                     "fine_envelope_anterior_step_mm",
+                     "fine_envelope_neighbour_inliers",
+                     "mirror_hypotheses",
+                     "min_depth_m",
+                     "max_depth_m",
+                     "refine_scales",
+                     "refine_robust_scale_px",
+                     "edge_high_fraction",
+                     "retry_edge_high_fraction",
+                     "rescue_depth_factors",
+                     "envelope_penalty_per_unit",
+                     "penetration_penalty_per_mm"});
   section.read("direction_step_deg", &s.direction_step_deg);
   section.read("roll_step_deg", &s.roll_step_deg);
   section.read("matches_per_bone", &s.matches_per_bone);
@@ -191,6 +207,10 @@ registration::PoseSearchSettings readSearchSettings(const YAML::Node& node,
   section.read("wide_screening_px", &s.wide_screening_px);
   section.read("wide_refined_per_bone", &s.wide_refined_per_bone);
   section.read("envelope_extra_refined", &s.envelope_extra_refined);
+  section.read("fine_envelope", &s.fine_envelope);
+  section.read("fine_envelope_flexion_step_deg", &s.fine_envelope_flexion_step_deg);
+  section.read("fine_envelope_anterior_step_mm", &s.fine_envelope_anterior_step_mm);
+  section.read("fine_envelope_neighbour_inliers", &s.fine_envelope_neighbour_inliers);
   section.read("mirror_hypotheses", &s.mirror_hypotheses);
   section.read("min_depth_m", &s.min_depth_m);
   section.read("max_depth_m", &s.max_depth_m);

@@ -61,7 +61,7 @@ kinematics::KneeCoordinates clampedToEnvelope(const constraints::LigamentSetting
 }
 
 std::vector<geometry::Pose> envelopeSamples(const JointModel& joint, double flexion_step_deg,
-                                            bool one_anterior) {
+                                            bool one_anterior, double anterior_step_mm) {
   const auto& bounds = joint.ligaments.bounds;
   const geometry::Pose parent = geometry::Pose::Identity();
   if (isShoulder(joint)) {
@@ -86,7 +86,7 @@ std::vector<geometry::Pose> envelopeSamples(const JointModel& joint, double flex
   std::vector<double> anterior_mm = {middle(bounds[3])};
   if (!one_anterior && std::isfinite(bounds[3].lower) && std::isfinite(bounds[3].upper)) {
     anterior_mm.clear();
-    for (double x = bounds[3].lower; x <= bounds[3].upper + 1e-9; x += 10.0) {
+    for (double x = bounds[3].lower; x <= bounds[3].upper + 1e-9; x += anterior_step_mm) {
       anterior_mm.push_back(x);
     }
   }

@@ -184,6 +184,12 @@ void PoseSearchSettings::validate() const {
   if (envelope_extra_refined < 0) {
     throw InputError("registration search: envelope_extra_refined must be >= 0");
   }
+  if (!(fine_envelope_flexion_step_deg >= 1.0) || !(fine_envelope_anterior_step_mm >= 1.0) ||
+      !(fine_envelope_neighbour_inliers >= 0.0 && fine_envelope_neighbour_inliers <= 1.0)) {
+    throw InputError(
+        "registration search: fine_envelope_flexion_step_deg >= 1, fine_envelope_anterior_step_mm "
+        ">= 1 and fine_envelope_neighbour_inliers in [0, 1] are needed");
+  }
   if (wide_refined_per_bone < 0 || !(wide_screening_px >= 1.0)) {
     throw InputError(
         "registration search: wide_refined_per_bone must be >= 0 and wide_screening_px >= 1");
@@ -389,6 +395,16 @@ PoseSearchResult PoseSearch::rescueAlongSightLines(const std::vector<ViewImage>&
     }
   }
   return found;
+}
+
+const std::vector<std::vector<geometry::Pose>>& PoseSearch::fineEnvelope() const {
+  std::call_once(fine_envelope_built_, [this] {
+    for (const JointModel& joint : registrar_->joints()) {
+      fine_envelope_.push_back(envelopeSamples(joint, settings_.fine_envelope_flexion_step_deg,
+                                               false, settings_.fine_envelope_anterior_step_mm));
+    }
+  });
+  return fine_envelope_;
 }
 
 double PoseSearch::jointPenalty(double envelope_violation, double penetration_m) const {
@@ -632,6 +648,15 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
   // neighbour: across the flexion range of the joint's envelope (for a bone the image alone
   // finds poorly: merged with its neighbour's silhouette in flexion, occluded, cut by the
   // field's edge), and each of its own hypotheses moved into the envelope.
+  const auto foundPoorly = [&](std::size_t b) {
+    return std::none_of(hypotheses[b].begin(), hypotheses[b].end(),
+                        [&](const Hypothesis& h) { return h.support >= suspect_fraction; });
+  };
+  // The missing bone's pose where `known` (the other bone's pose) and the joint put it.
+  const auto throughJoint = [](const geometry::Pose& known, const geometry::Pose& child_in_parent,
+                               bool child_missing) {
+    return child_missing ? known * child_in_parent : known * child_in_parent.inverse();
+  };
   for (std::size_t j = 0; j < registrar_->joints().size(); ++j) {
     const JointModel& joint = registrar_->joints()[j];
     for (const bool child_missing : {true, false}) {
@@ -642,8 +667,7 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
       for (const Hypothesis& h : hypotheses[known]) {
         if (h.support < suspect_fraction) continue;
         for (const geometry::Pose& child_in_parent : envelope_[j]) {
-          starts.push_back(child_missing ? h.pose * child_in_parent
-                                         : h.pose * child_in_parent.inverse());
+          starts.push_back(throughJoint(h.pose, child_in_parent, child_missing));
         }
         // Each hypothesis of the other bone moved into the envelope: a rotation about a nearly
         // symmetric implant's axis that its silhouette cannot show is taken from the joint.
@@ -658,10 +682,34 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
       // A bone that no hypothesis fits yet (merged with its neighbour's silhouette, whose
       // envelope starts a wrong flexion can outscore: the femoral component's round condyles
       // stay on their edges as it turns about them) has only these starts to be found from.
-      const bool found_poorly =
-          std::none_of(hypotheses[missing].begin(), hypotheses[missing].end(),
-                       [&](const Hypothesis& h) { return h.support >= suspect_fraction; });
-      refineBest(missing, starts, found_poorly ? settings_.envelope_extra_refined : 0);
+      refineBest(missing, starts, foundPoorly(missing) ? settings_.envelope_extra_refined : 0);
+    }
+  }
+  // ... and a bone still found poorly, beside a neighbour found well, from that neighbour and its
+  // reflections across the beam through the finer envelope (PoseSearchSettings::fine_envelope).
+  const geometry::Pose& world_from_camera = first.camera.worldFromCamera();
+  for (std::size_t j = 0; settings_.fine_envelope && j < registrar_->joints().size(); ++j) {
+    const JointModel& joint = registrar_->joints()[j];
+    for (const bool child_missing : {true, false}) {
+      const std::size_t missing = child_missing ? joint.child : joint.parent;
+      const std::size_t known = child_missing ? joint.parent : joint.child;
+      if (!foundPoorly(missing)) continue;
+      std::vector<geometry::Pose> starts;
+      for (const Hypothesis& h : hypotheses[known]) {
+        if (h.support < settings_.fine_envelope_neighbour_inliers) continue;
+        // A neighbour seen nearly edge-on fits as well reflected (a tray's tilt), and the
+        // missing bone sits by the true one.
+        const geometry::Pose in_camera = world_from_camera.inverse() * h.pose;
+        for (const geometry::Pose& neighbour :
+             {h.pose, world_from_camera * tiltReflectedAcrossBeam(in_camera),
+              world_from_camera * turnReflectedAcrossBeam(in_camera),
+              world_from_camera * mirroredAcrossBeam(in_camera)}) {
+          for (const geometry::Pose& child_in_parent : fineEnvelope()[j]) {
+            starts.push_back(throughJoint(neighbour, child_in_parent, child_missing));
+          }
+        }
+      }
+      if (!starts.empty()) refineBest(missing, starts, settings_.envelope_extra_refined);
     }
   }
   for (std::size_t b = 0; b < bones; ++b) {

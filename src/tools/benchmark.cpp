@@ -935,6 +935,11 @@ int main(int argc, char** argv) {
           ->default_value(perturbation.search_settings.envelope_extra_refined),
       "search: more of a bone's starts through its joint's envelope refined when none of its "
       "own fits (registration: search: envelope_extra_refined)")(
+      "fine-envelope",
+      po::value(&perturbation.search_settings.fine_envelope)
+          ->default_value(perturbation.search_settings.fine_envelope),
+      "search: a bone still unfound beside a well-found neighbour is searched again from it "
+      "through a finer envelope (registration: search: fine_envelope; true/false)")(
       "rescue-depth-factors", po::value(&rescue_depth_factors),
       "search: a result with a bone not ok is solved again from its bones moved along their "
       "lines of sight to these fractions of their distance, comma-separated ('none': no "

@@ -31,15 +31,15 @@ kinematics::KneeCoordinates clampedToEnvelope(const constraints::LigamentSetting
                                               kinematics::KneeCoordinates coordinates);
 
 // The child's pose in the parent's mesh frame across the joint's envelope: flexion (the first
-// knee coordinate) in `flexion_step_deg` steps over its bounds, anterior translation in 10 mm
-// steps over its bounds (or at its middle when `one_anterior`), every other coordinate at the
-// middle of its bounds; an unbounded y translation (a knee's distraction) is set where the
-// articular surfaces touch, when the joint has contact surfaces, since that is where a loaded
-// joint is. A glenohumeral joint sweeps its elevation instead (over its bounds, else 0 to -150
-// deg: the arm rising), every other coordinate at the middle of its bounds (0 when unbounded:
-// the humeral head on the glenoid for frames at the joint centre), without seating.
+// knee coordinate) in `flexion_step_deg` steps over its bounds, anterior translation in
+// `anterior_step_mm` steps over its bounds (or at its middle when `one_anterior`), every other
+// coordinate at the middle of its bounds; an unbounded y translation (a knee's distraction) is
+// set where the articular surfaces touch, when the joint has contact surfaces, since that is
+// where a loaded joint is. A glenohumeral joint sweeps its elevation instead (over its bounds,
+// else 0 to -150 deg: the arm rising), every other coordinate at the middle of its bounds (0 when
+// unbounded: the humeral head on the glenoid for frames at the joint centre), without seating.
 std::vector<geometry::Pose> envelopeSamples(const JointModel& joint, double flexion_step_deg,
-                                            bool one_anterior);
+                                            bool one_anterior, double anterior_step_mm = 10.0);
 
 }  // namespace registration
 }  // namespace fluoro_tracker

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -54,6 +55,24 @@ struct PoseSearchSettings {
   // 0 148 of 160 and 77 of 80, 10 151 and 78, 20 151 and 78; held-out 19 / 23, 66 and 65 of 80
   // with 0 and 10 (a turn reflection flipped).
   int envelope_extra_refined = 10;
+  // A bone that still has no hypothesis fitting suspect_inlier_fraction after those starts,
+  // beside a neighbour with one that fits at least `fine_envelope_neighbour_inliers`, is searched
+  // again from the neighbour's well-fitting hypotheses, and from their tilt, turn and full
+  // reflections across the beam (which fit as well when the neighbour is seen nearly edge-on),
+  // through a finer envelope: flexion every `fine_envelope_flexion_step_deg` and anterior
+  // translation every `fine_envelope_anterior_step_mm` (10 deg and 10 mm above), with
+  // envelope_extra_refined more of those starts refined. The envelope's other coordinates sit at
+  // their middles, so its starts are a few degrees off the bone's true turn and tilt anyway; the
+  // finer steps bring one within the refinement's reach (a bright femoral component against its
+  // bone, beside a tray found at 0.998, whose nearest start was 2-5 mm and 7-13 deg off: the
+  // benchmark's no-guess trials, seed 17, trial 3, frame 6; and beside a tray found only at its
+  // tilt reflection: seed 13, trial 2, frame 8). It runs only where the search would otherwise
+  // end with that bone unfound. Measured with `benchmark --protocol search`: see the README
+  // ("Automatic initialisation").
+  bool fine_envelope = true;
+  double fine_envelope_flexion_step_deg = 5.0;
+  double fine_envelope_anterior_step_mm = 5.0;
+  double fine_envelope_neighbour_inliers = 0.9;
   // Distances from the source at which a bone may be: a region whose size would put the bone
   // outside them is not that bone (it is a marker, a fragment, or another object).
   double min_depth_m = 0.2;
@@ -153,6 +172,10 @@ class PoseSearch {
   std::vector<EdgePass> passes_;  // the first pass, then the retry pass if configured
   // Per joint: the child's pose in the parent's mesh frame across the envelope.
   std::vector<std::vector<geometry::Pose>> envelope_;
+  // ... and at the finer steps (PoseSearchSettings::fine_envelope), built on the first frame
+  // that needs them (rarely: about a second of contact queries per joint).
+  mutable std::once_flag fine_envelope_built_;
+  mutable std::vector<std::vector<geometry::Pose>> fine_envelope_;
   struct JointLibrary {
     std::size_t joint;
     geometry::Pose child_in_parent;
@@ -164,6 +187,8 @@ class PoseSearch {
   // (PoseSearchSettings::rescue_depth_factors) when a bone is not ok; the better is returned.
   PoseSearchResult rescueAlongSightLines(const std::vector<ViewImage>& views,
                                          PoseSearchResult found) const;
+  // Per joint, the child's pose in the parent's mesh frame across the finer envelope.
+  const std::vector<std::vector<geometry::Pose>>& fineEnvelope() const;
   // A joint's penalty in the search's scores: envelope violation and penetration.
   double jointPenalty(double envelope_violation, double penetration_m) const;
   // How a jointly registered result ranks among the finalists: its bones' contour inlier

@@ -625,6 +625,11 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.search.refined_per_bone, search.refined_per_bone);
   EXPECT_EQ(c.search.wide_refined_per_bone, search.wide_refined_per_bone);
   EXPECT_EQ(c.search.envelope_extra_refined, search.envelope_extra_refined);
+  EXPECT_EQ(c.search.fine_envelope, search.fine_envelope);
+  EXPECT_DOUBLE_EQ(c.search.fine_envelope_neighbour_inliers,
+                   search.fine_envelope_neighbour_inliers);
+  EXPECT_DOUBLE_EQ(c.search.fine_envelope_flexion_step_deg, search.fine_envelope_flexion_step_deg);
+  EXPECT_DOUBLE_EQ(c.search.fine_envelope_anterior_step_mm, search.fine_envelope_anterior_step_mm);
   EXPECT_DOUBLE_EQ(c.search.wide_screening_px, search.wide_screening_px);
   EXPECT_DOUBLE_EQ(c.search.screening_scale, search.screening_scale);
   EXPECT_DOUBLE_EQ(c.search.edge_high_fraction, search.edge_high_fraction);
@@ -640,7 +645,9 @@ bones:
 registration:
   search: {refined_per_bone: 3, wide_refined_per_bone: 0, wide_screening_px: 3.0,
            envelope_extra_refined: 5, edge_high_fraction: 0.2, retry_edge_high_fraction: 0,
-           rescue_depth_factors: [0.95, 1.05]}
+           rescue_depth_factors: [0.95, 1.05], fine_envelope: false,
+           fine_envelope_neighbour_inliers: 0.8, fine_envelope_flexion_step_deg: 4,
+           fine_envelope_anterior_step_mm: 3}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_EQ(c.search.refined_per_bone, 3);
@@ -650,6 +657,10 @@ registration:
   EXPECT_DOUBLE_EQ(c.search.edge_high_fraction, 0.2);
   EXPECT_DOUBLE_EQ(c.search.retry_edge_high_fraction, 0.0);
   EXPECT_EQ(c.search.rescue_depth_factors, (std::vector<double>{0.95, 1.05}));
+  EXPECT_FALSE(c.search.fine_envelope);
+  EXPECT_DOUBLE_EQ(c.search.fine_envelope_neighbour_inliers, 0.8);
+  EXPECT_DOUBLE_EQ(c.search.fine_envelope_flexion_step_deg, 4.0);
+  EXPECT_DOUBLE_EQ(c.search.fine_envelope_anterior_step_mm, 3.0);
   expectRegistrationRejected("{search: {wide_screening_px: 0.5}}", "wide_screening_px >= 1");
   expectRegistrationRejected("{search: {envelope_extra_refined: -1}}", "envelope_extra_refined");
   expectRegistrationRejected("{search: {edge_high_fraction: 0}}", "edge_high_fraction");
@@ -658,4 +669,8 @@ registration:
   expectRegistrationRejected("{search: {rescue_depth_factors: [0.9, 1.0]}}",
                              "rescue_depth_factors");
   expectRegistrationRejected("{search: {rescue_depth_factors: [-1.1]}}", "rescue_depth_factors");
+  expectRegistrationRejected("{search: {fine_envelope_flexion_step_deg: 0.5}}",
+                             "fine_envelope_flexion_step_deg");
+  expectRegistrationRejected("{search: {fine_envelope_neighbour_inliers: 1.5}}",
+                             "fine_envelope_neighbour_inliers");
 }
