@@ -466,7 +466,9 @@ TEST(PoseSearch, FindsALeftKneeWithNoGuess) {
 // (where neither pass does), so the retry pass is shown with contact sampled at the vertices
 // only, as before. And so does the region thresholds' window from the exposed field
 // (ImplantBlobSettings::min_field_fraction, stop 47), whose regions let the first pass find
-// this component too: the searches here take the window from the whole frame, as before.
+// this component too: the searches here take the window from the whole frame, as before. And so
+// does the finer envelope from the tray (PoseSearchSettings::fine_envelope, stop 57): the
+// searches that show the retry pass run without it.
 TEST(PoseSearch, ARetryWithALowerEdgeThresholdFindsABrightFemoralComponentInDeepFlexion) {
   sim::TrialSimulatorSettings s;
   s.motion.frames = 25;
@@ -488,6 +490,7 @@ TEST(PoseSearch, ARetryWithALowerEdgeThresholdFindsABrightFemoralComponentInDeep
   // The first pass alone: the femoral component is not found, or not with an ok status.
   registration::PoseSearchSettings whole_frame_window;
   whole_frame_window.blobs.min_field_fraction = 1.1;
+  whole_frame_window.fine_envelope = false;
   registration::PoseSearchSettings first_pass_only = whole_frame_window;
   first_pass_only.retry_edge_high_fraction = 0.0;
   const registration::PoseSearch without_retry(registrar, first_pass_only);
@@ -530,6 +533,13 @@ TEST(PoseSearch, ARetryWithALowerEdgeThresholdFindsABrightFemoralComponentInDeep
   const registration::PoseSearch with_field_window(registrar, first_pass_field_window);
   expect_femur_found(with_field_window.search({{frame.images[0], camera}}),
                      "first pass with the field's window");
+
+  // And the first pass with the finer envelope (the default).
+  registration::PoseSearchSettings first_pass_fine_envelope = first_pass_only;
+  first_pass_fine_envelope.fine_envelope = true;
+  const registration::PoseSearch with_fine_envelope(registrar, first_pass_fine_envelope);
+  expect_femur_found(with_fine_envelope.search({{frame.images[0], camera}}),
+                     "first pass with the finer envelope");
 }
 
 // The femoral component in flexion (110 deg), its silhouette merged with the tray's: no
@@ -537,7 +547,9 @@ TEST(PoseSearch, ARetryWithALowerEdgeThresholdFindsABrightFemoralComponentInDeep
 // outscore the right one, since the component's round condyles stay on their edges as it turns
 // about them (the benchmark's no-guess trials, seed 3, trial 3, frame 4). Frames like this one
 // are found or not by a narrow margin: of eight noise draws (7-14), the default found two (this
-// one, 8, among them) and the search without the extra starts two (7 and 9).
+// one, 8, among them) and the search without the extra starts two (7 and 9). The finer envelope
+// (PoseSearchSettings::fine_envelope, stop 57) finds this frame without the extra starts, so
+// the search that shows them missing runs without it.
 TEST(PoseSearch, MoreEnvelopeStartsFindAFemoralComponentMergedWithTheTray) {
   sim::TrialSimulatorSettings s;
   s.motion.frames = 10;
@@ -557,6 +569,7 @@ TEST(PoseSearch, MoreEnvelopeStartsFindAFemoralComponentMergedWithTheTray) {
 
   registration::PoseSearchSettings fewer;
   fewer.envelope_extra_refined = 0;
+  fewer.fine_envelope = false;
   const registration::PoseSearch without(simulatedKneeRegistrar(sim), fewer);
   const bool found_without = findsBothBones(without, frame, camera);
   EXPECT_FALSE(found_without) << "the search finds this frame without the extra envelope "
