@@ -92,12 +92,15 @@ std::vector<geometry::Pose> edgeMatchStarts(const imaging::SilhouetteLibrary& li
                                             const imaging::EdgeMap& coarse,
                                             const std::vector<double>& depths,
                                             const PoseSearchSettings& settings, int threads) {
-  if (depths.empty()) return {};
+  if (depths.empty() || settings.edge_match_depth_factors.empty()) return {};
   const geometry::XrayCamera& camera = coarse.camera();
   const double focal = std::sqrt(camera.fx() * camera.fy());
   const double depth = median(depths);
   if (!(depth >= settings.min_depth_m && depth <= settings.max_depth_m)) return {};
-  const std::vector<double> px_per_m = {focal / depth, focal / (0.93 * depth)};
+  std::vector<double> px_per_m;
+  for (const double factor : settings.edge_match_depth_factors) {
+    px_per_m.push_back(focal / (factor * depth));
+  }
   // Around the largest regions (a merged joint is the largest): their boxes plus a margin.
   std::vector<const imaging::ImplantBlob*> largest;
   for (const auto& blob : blobs) largest.push_back(&blob);
@@ -215,6 +218,11 @@ void PoseSearchSettings::validate() const {
     if (!(factor > 0.5 && factor < 2.0) || factor == 1.0) {
       throw InputError(
           "registration search: rescue_depth_factors must lie in (0.5, 2) and not be 1");
+    }
+  }
+  for (const double factor : edge_match_depth_factors) {
+    if (!(factor > 0.5 && factor < 2.0)) {
+      throw InputError("registration search: edge_match_depth_factors must lie in (0.5, 2)");
     }
   }
   if (edge_matches_per_bone < 0 || edge_match_regions < 0 ||

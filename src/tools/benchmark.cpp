@@ -724,6 +724,7 @@ int main(int argc, char** argv) {
   std::vector<double> scales;
   std::string depth_retry_shifts;
   std::string rescue_depth_factors;
+  std::string edge_match_depth_factors;
   std::string conditions_option = "image,contact";
   std::string edge_offset_model = "uniform";
   std::string parameterisation = "absolute";
@@ -944,6 +945,10 @@ int main(int argc, char** argv) {
       "search: a result with a bone not ok is solved again from its bones moved along their "
       "lines of sight to these fractions of their distance, comma-separated ('none': no "
       "rescue; registration: search: rescue_depth_factors)")(
+      "edge-match-depth-factors", po::value(&edge_match_depth_factors),
+      "search: chamfer matching at these fractions of the distance the image's regions suggest, "
+      "comma-separated ('none': no chamfer matching; registration: search: "
+      "edge_match_depth_factors)")(
       "trial-set", po::value(&trial_set)->default_value(trial_set),
       "good (1024x1024) or poor (768x768, noisier, a metal rod across the tibia)")(
       "simulator-config", po::value(&simulator_config),
@@ -1031,12 +1036,19 @@ int main(int argc, char** argv) {
       settings.depth_retry.shifts_mm =
           commaSeparatedNumbers(depth_retry_shifts, "--depth-retry-shifts-mm");
     }
-    if (rescue_depth_factors == "none") {
-      perturbation.search_settings.rescue_depth_factors.clear();
-    } else if (!rescue_depth_factors.empty()) {
-      perturbation.search_settings.rescue_depth_factors =
-          commaSeparatedNumbers(rescue_depth_factors, "--rescue-depth-factors");
-    }
+    // A comma-separated list of factors or 'none' (an empty list); no text keeps the default.
+    const auto read_factors = [](const std::string& text, const std::string& option,
+                                 std::vector<double>* factors) {
+      if (text == "none") {
+        factors->clear();
+      } else if (!text.empty()) {
+        *factors = commaSeparatedNumbers(text, option);
+      }
+    };
+    read_factors(rescue_depth_factors, "--rescue-depth-factors",
+                 &perturbation.search_settings.rescue_depth_factors);
+    read_factors(edge_match_depth_factors, "--edge-match-depth-factors",
+                 &perturbation.search_settings.edge_match_depth_factors);
     perturbation.search_settings.validate();
     if (vm.count("staged")) {
       registration::RegistrationStage envelope;

@@ -597,13 +597,17 @@ TEST(PoseSearch, ARescueAlongTheLinesOfSightLeavesAFalseMinimumAlongTheBeam) {
   std::mt19937_64 rng(8);
   const auto frame = sim.render(4, &rng);
 
-  registration::PoseSearchSettings none;
+  // The search as it was before chamfer matching nearer than the regions suggest
+  // (edge_match_depth_factors), which ends elsewhere on this rendering and rescues nothing.
+  registration::PoseSearchSettings with;
+  with.edge_match_depth_factors = {1.0, 0.93};
+  registration::PoseSearchSettings none = with;
   none.rescue_depth_factors.clear();
   const registration::PoseSearch without(simulatedKneeRegistrar(sim), none);
   EXPECT_FALSE(findsBothBones(without, frame, camera))
       << "the search finds this frame without the rescue: the test shows nothing about it";
 
-  const registration::PoseSearch search(simulatedKneeRegistrar(sim));
+  const registration::PoseSearch search(simulatedKneeRegistrar(sim), with);
   ASSERT_FALSE(search.settings().rescue_depth_factors.empty());
   const auto found = search.search({{frame.images[0], camera}});
   expectBothBonesWithinCriterion(found.registration, frame, camera, "rescued");
@@ -613,26 +617,37 @@ TEST(PoseSearch, ARescueAlongTheLinesOfSightLeavesAFalseMinimumAlongTheBeam) {
 
 namespace {
 
-// The search misses frame `index` of `trial` (rendered with noise draw `draw`) without the finer
-// envelope (PoseSearchSettings::fine_envelope) and finds both bones, ok, with it.
-void expectFoundOnlyWithTheFinerEnvelope(const sim::TrialSimulatorSettings& trial, int index,
-                                         int draw) {
+// The search misses frame `index` of `trial` (rendered with noise draw `draw`) with `without` and
+// finds both bones, ok, with `with`: settings that differ by the feature, `feature`, a test shows.
+void expectFoundOnlyWith(const sim::TrialSimulatorSettings& trial, int index, int draw,
+                         const registration::PoseSearchSettings& without,
+                         const registration::PoseSearchSettings& with, const std::string& feature) {
   const sim::TrialSimulator sim(trial);
   const geometry::XrayCamera& camera = sim.views()[0].camera;
   std::mt19937_64 rng(draw);
   const auto frame = sim.render(index, &rng);
 
-  registration::PoseSearchSettings coarse_only;
-  coarse_only.fine_envelope = false;
-  const registration::PoseSearch without(simulatedKneeRegistrar(sim), coarse_only);
-  EXPECT_FALSE(findsBothBones(without, frame, camera))
-      << "the search finds this frame without the finer envelope: the test shows nothing about it";
+  const registration::PoseSearch search_without(simulatedKneeRegistrar(sim), without);
+  EXPECT_FALSE(findsBothBones(search_without, frame, camera))
+      << "the search finds this frame without " << feature << ": the test shows nothing about it";
 
-  const registration::PoseSearch search(simulatedKneeRegistrar(sim));
-  ASSERT_TRUE(search.settings().fine_envelope);
+  const registration::PoseSearch search(simulatedKneeRegistrar(sim), with);
   const auto found = search.search({{frame.images[0], camera}});
-  expectBothBonesWithinCriterion(found.registration, frame, camera, "finer envelope");
+  expectBothBonesWithinCriterion(found.registration, frame, camera, feature);
   EXPECT_EQ(found.status, (std::vector<std::string>{"ok", "ok"}));
+}
+
+// ... the finer envelope (PoseSearchSettings::fine_envelope), in the search as it was before
+// chamfer matching nearer than the regions suggest (edge_match_depth_factors), which finds these
+// frames without the finer envelope too.
+void expectFoundOnlyWithTheFinerEnvelope(const sim::TrialSimulatorSettings& trial, int index,
+                                         int draw) {
+  registration::PoseSearchSettings with;
+  with.edge_match_depth_factors = {1.0, 0.93};
+  ASSERT_TRUE(with.fine_envelope);
+  registration::PoseSearchSettings coarse_only = with;
+  coarse_only.fine_envelope = false;
+  expectFoundOnlyWith(trial, index, draw, coarse_only, with, "the finer envelope");
 }
 
 }  // namespace
@@ -670,6 +685,48 @@ TEST(PoseSearch, AFinerEnvelopeFromATraysReflectionsFindsTheFemoralComponent) {
   s.view_roll_deg = 4.7314500265846142;
   s.seed = 15;
   expectFoundOnlyWithTheFinerEnvelope(s, 8, 1);
+}
+
+// The image's regions are only a component's core (its thick parts in a dark display, metal over
+// bone in a bright one), smaller than its silhouette, so every region match and the chamfer
+// matching at the distances they hint put the whole knee too far from the source. Chamfer
+// matching also at 86 and 80 % of the hinted distance finds it. Of ten noise draws (1-10) each
+// frame below was found without those distances in 0 (bright) and 5 (dark), with them in all ten.
+namespace {
+
+void expectFoundOnlyWithNearerChamferMatching(const sim::TrialSimulatorSettings& trial, int index,
+                                              int draw) {
+  registration::PoseSearchSettings hinted_only;
+  hinted_only.edge_match_depth_factors = {1.0, 0.93};
+  expectFoundOnlyWith(trial, index, draw, hinted_only, registration::PoseSearchSettings(),
+                      "chamfer matching nearer than the regions suggest");
+}
+
+}  // namespace
+
+// Bright implants, 68 deg flexion (the benchmark's no-guess trials, seed 19, trial 1, frame 6):
+// both bones had ended 300-340 mm too far from the source.
+TEST(PoseSearch, NearerChamferMatchingFindsABrightKneeItsRegionsPutTooFar) {
+  sim::TrialSimulatorSettings s;
+  s.motion.frames = 10;
+  s.motion.max_flexion_deg = 88.892519275804574;
+  s.view_yaw_deg = -3.638535791612111;
+  s.view_roll_deg = 2.9927263009728158;
+  s.detector.implants_bright = true;
+  s.seed = 20;
+  expectFoundOnlyWithNearerChamferMatching(s, 6, 1);
+}
+
+// Dark implants, 36 deg flexion (seed 31, trial 2, frame 2): the regions are the femoral
+// component's lower crescent and the tray's plateau; both bones had ended 180-200 mm too far.
+TEST(PoseSearch, NearerChamferMatchingFindsADarkKneeItsRegionsPutTooFar) {
+  sim::TrialSimulatorSettings s;
+  s.motion.frames = 10;
+  s.motion.max_flexion_deg = 80.112456967843102;
+  s.view_yaw_deg = 0.76708014564856875;
+  s.view_roll_deg = 4.2196184161278403;
+  s.seed = 33;
+  expectFoundOnlyWithNearerChamferMatching(s, 2, 4);
 }
 
 TEST(PoseSearch, ABlankFrameIsReportedNotGuessed) {
