@@ -696,6 +696,7 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
   // ... and a bone still found poorly, beside a neighbour found well, from that neighbour and its
   // reflections across the beam through the finer envelope (PoseSearchSettings::fine_envelope).
   const geometry::Pose& world_from_camera = first.camera.worldFromCamera();
+  const geometry::Pose camera_from_world = world_from_camera.inverse();
   for (std::size_t j = 0; settings_.fine_envelope && j < registrar_->joints().size(); ++j) {
     const JointModel& joint = registrar_->joints()[j];
     for (const bool child_missing : {true, false}) {
@@ -707,12 +708,13 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
         if (h.support < settings_.fine_envelope_neighbour_inliers) continue;
         // A neighbour seen nearly edge-on fits as well reflected (a tray's tilt), and the
         // missing bone sits by the true one.
-        const geometry::Pose in_camera = world_from_camera.inverse() * h.pose;
+        const geometry::Pose in_camera = camera_from_world * h.pose;
+        const std::vector<geometry::Pose>& fine_samples = fineEnvelope()[j];
         for (const geometry::Pose& neighbour :
              {h.pose, world_from_camera * tiltReflectedAcrossBeam(in_camera),
               world_from_camera * turnReflectedAcrossBeam(in_camera),
               world_from_camera * mirroredAcrossBeam(in_camera)}) {
-          for (const geometry::Pose& child_in_parent : fineEnvelope()[j]) {
+          for (const geometry::Pose& child_in_parent : fine_samples) {
             starts.push_back(throughJoint(neighbour, child_in_parent, child_missing));
           }
         }

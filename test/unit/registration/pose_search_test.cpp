@@ -81,6 +81,30 @@ bool findsBothBones(const registration::PoseSearch& search, const sim::Simulated
   }
 }
 
+// The search misses frame `index` of `trial` (rendered with noise draw `draw`) with `without` and
+// finds both bones, ok, with `with`: settings that differ by the feature, `feature`, a test shows.
+// Returns the search's result with `with`.
+registration::PoseSearchResult expectFoundOnlyWith(const sim::TrialSimulatorSettings& trial,
+                                                   int index, int draw,
+                                                   const registration::PoseSearchSettings& without,
+                                                   const registration::PoseSearchSettings& with,
+                                                   const std::string& feature) {
+  const sim::TrialSimulator sim(trial);
+  const geometry::XrayCamera& camera = sim.views()[0].camera;
+  std::mt19937_64 rng(draw);
+  const auto frame = sim.render(index, &rng);
+
+  const registration::PoseSearch search_without(simulatedKneeRegistrar(sim), without);
+  EXPECT_FALSE(findsBothBones(search_without, frame, camera))
+      << "the search finds this frame without " << feature << ": the test shows nothing about it";
+
+  const registration::PoseSearch search(simulatedKneeRegistrar(sim), with);
+  const auto found = search.search({{frame.images[0], camera}});
+  expectBothBonesWithinCriterion(found.registration, frame, camera, feature);
+  EXPECT_EQ(found.status, (std::vector<std::string>{"ok", "ok"}));
+  return found;
+}
+
 // A tray-like dark block (`stem`, and `plate` across one end of it) in `leg`, on a 256 x 256
 // frame.
 struct ImplantInLeg {
@@ -592,50 +616,19 @@ TEST(PoseSearch, ARescueAlongTheLinesOfSightLeavesAFalseMinimumAlongTheBeam) {
   s.motion.max_flexion_deg = 60.0 + 60.0 * unit(trial_rng);
   s.view_yaw_deg = -8.0 + 16.0 * unit(trial_rng);
   s.view_roll_deg = -5.0 + 10.0 * unit(trial_rng);
-  const sim::TrialSimulator sim(s);
-  const geometry::XrayCamera& camera = sim.views()[0].camera;
-  std::mt19937_64 rng(8);
-  const auto frame = sim.render(4, &rng);
 
   // The search as it was before chamfer matching nearer than the regions suggest
   // (edge_match_depth_factors), which ends elsewhere on this rendering and rescues nothing.
   registration::PoseSearchSettings with;
   with.edge_match_depth_factors = {1.0, 0.93};
+  ASSERT_FALSE(with.rescue_depth_factors.empty());
   registration::PoseSearchSettings none = with;
   none.rescue_depth_factors.clear();
-  const registration::PoseSearch without(simulatedKneeRegistrar(sim), none);
-  EXPECT_FALSE(findsBothBones(without, frame, camera))
-      << "the search finds this frame without the rescue: the test shows nothing about it";
-
-  const registration::PoseSearch search(simulatedKneeRegistrar(sim), with);
-  ASSERT_FALSE(search.settings().rescue_depth_factors.empty());
-  const auto found = search.search({{frame.images[0], camera}});
-  expectBothBonesWithinCriterion(found.registration, frame, camera, "rescued");
+  const auto found = expectFoundOnlyWith(s, 4, 8, none, with, "the rescue");
   EXPECT_NE(found.rescue_depth_factor, 1.0);
-  EXPECT_EQ(found.status, (std::vector<std::string>{"ok", "ok"}));
 }
 
 namespace {
-
-// The search misses frame `index` of `trial` (rendered with noise draw `draw`) with `without` and
-// finds both bones, ok, with `with`: settings that differ by the feature, `feature`, a test shows.
-void expectFoundOnlyWith(const sim::TrialSimulatorSettings& trial, int index, int draw,
-                         const registration::PoseSearchSettings& without,
-                         const registration::PoseSearchSettings& with, const std::string& feature) {
-  const sim::TrialSimulator sim(trial);
-  const geometry::XrayCamera& camera = sim.views()[0].camera;
-  std::mt19937_64 rng(draw);
-  const auto frame = sim.render(index, &rng);
-
-  const registration::PoseSearch search_without(simulatedKneeRegistrar(sim), without);
-  EXPECT_FALSE(findsBothBones(search_without, frame, camera))
-      << "the search finds this frame without " << feature << ": the test shows nothing about it";
-
-  const registration::PoseSearch search(simulatedKneeRegistrar(sim), with);
-  const auto found = search.search({{frame.images[0], camera}});
-  expectBothBonesWithinCriterion(found.registration, frame, camera, feature);
-  EXPECT_EQ(found.status, (std::vector<std::string>{"ok", "ok"}));
-}
 
 // ... the finer envelope (PoseSearchSettings::fine_envelope), in the search as it was before
 // chamfer matching nearer than the regions suggest (edge_match_depth_factors), which finds these
