@@ -198,6 +198,7 @@ registration::PoseSearchSettings readSearchSettings(const YAML::Node& node,
                      "retry_edge_high_fraction",
                      "rescue_depth_factors",
                      "edge_match_depth_factors",
+                     "edge_match_nearer_depth_factors",
                      "envelope_penalty_per_unit",
                      "penetration_penalty_per_mm"});
   section.read("direction_step_deg", &s.direction_step_deg);
@@ -221,6 +222,7 @@ registration::PoseSearchSettings readSearchSettings(const YAML::Node& node,
   section.read("retry_edge_high_fraction", &s.retry_edge_high_fraction);
   section.read("rescue_depth_factors", &s.rescue_depth_factors);
   section.read("edge_match_depth_factors", &s.edge_match_depth_factors);
+  section.read("edge_match_nearer_depth_factors", &s.edge_match_nearer_depth_factors);
   section.read("envelope_penalty_per_unit", &s.envelope_penalty_per_unit);
   section.read("penetration_penalty_per_mm", &s.penetration_penalty_per_mm);
   try {

@@ -83,22 +83,23 @@ std::vector<geometry::Pose> shapeMatchStarts(const imaging::SilhouetteLibrary& l
 }
 
 // Starting poses for one bone (camera frame) from chamfer matching of its library on the
-// coarse map's edges, around the largest candidate regions, at the distances the region
-// matches suggest (`depths`: from the joint's combined silhouettes and the bone's own matches;
-// their median, and 7 % nearer, since a thresholded region is a little smaller than the
-// silhouette).
+// coarse map's edges, around the largest candidate regions, at `factors` of the distance the
+// region matches suggest (`depths`: from the joint's combined silhouettes and the bone's own
+// matches; their median. A thresholded region is smaller than the silhouette, so the factors
+// are 1 or less).
 std::vector<geometry::Pose> edgeMatchStarts(const imaging::SilhouetteLibrary& library,
                                             const std::vector<imaging::ImplantBlob>& blobs,
                                             const imaging::EdgeMap& coarse,
                                             const std::vector<double>& depths,
+                                            const std::vector<double>& factors,
                                             const PoseSearchSettings& settings, int threads) {
-  if (depths.empty() || settings.edge_match_depth_factors.empty()) return {};
+  if (depths.empty() || factors.empty()) return {};
   const geometry::XrayCamera& camera = coarse.camera();
   const double focal = std::sqrt(camera.fx() * camera.fy());
   const double depth = median(depths);
   if (!(depth >= settings.min_depth_m && depth <= settings.max_depth_m)) return {};
   std::vector<double> px_per_m;
-  for (const double factor : settings.edge_match_depth_factors) {
+  for (const double factor : factors) {
     px_per_m.push_back(focal / (factor * depth));
   }
   // Around the largest regions (a merged joint is the largest): their boxes plus a margin.
@@ -220,9 +221,14 @@ void PoseSearchSettings::validate() const {
           "registration search: rescue_depth_factors must lie in (0.5, 2) and not be 1");
     }
   }
-  for (const double factor : edge_match_depth_factors) {
-    if (!(factor > 0.5 && factor < 2.0)) {
-      throw InputError("registration search: edge_match_depth_factors must lie in (0.5, 2)");
+  for (const auto& [name, factors] :
+       {std::pair<const char*, const std::vector<double>&>{"edge_match_depth_factors",
+                                                           edge_match_depth_factors},
+        {"edge_match_nearer_depth_factors", edge_match_nearer_depth_factors}}) {
+    for (const double factor : factors) {
+      if (!(factor > 0.5 && factor < 2.0)) {
+        throw InputError(std::string("registration search: ") + name + " must lie in (0.5, 2)");
+      }
     }
   }
   if (edge_matches_per_bone < 0 || edge_match_regions < 0 ||
@@ -526,6 +532,11 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
       }
     }
   };
+  // No hypothesis of bone b reaches the suspect inlier fraction yet.
+  const auto foundPoorly = [&](std::size_t b) {
+    return std::none_of(hypotheses[b].begin(), hypotheses[b].end(),
+                        [&](const Hypothesis& h) { return h.support >= suspect_fraction; });
+  };
 
   // A camera-frame start moved to the fixed frame, with its mirror hypothesis.
   const auto addStart = [&](std::vector<geometry::Pose>* starts,
@@ -609,21 +620,30 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
   for (std::size_t b = 0; b < bones; ++b) {
     std::vector<geometry::Pose> starts = joint_starts[b];
     const std::vector<geometry::Pose> shape_starts = addShapeStarts(b, regions, &starts);
-    std::vector<geometry::Pose> edge_starts;
-    if (settings_.edge_matching && !regions.empty()) {
+    const bool edge_matching = settings_.edge_matching && !regions.empty();
+    if (edge_matching) {
       for (std::size_t k = 0; k < shape_starts.size() && k < 2; ++k) {
         depth_hints[b].push_back(shape_starts[k].translation().z());
       }
-      for (const geometry::Pose& camera_pose :
-           edgeMatchStarts(*libraries_[b], regions, coarse, depth_hints[b], settings_, threads)) {
+    }
+    const auto edgeStarts = [&](const std::vector<double>& factors) {
+      std::vector<geometry::Pose> edge_starts;
+      if (!edge_matching) return edge_starts;
+      for (const geometry::Pose& camera_pose : edgeMatchStarts(
+               *libraries_[b], regions, coarse, depth_hints[b], factors, settings_, threads)) {
         addStart(&edge_starts, camera_pose);
       }
-    }
+      return edge_starts;
+    };
+    const std::vector<geometry::Pose> edge_starts = edgeStarts(settings_.edge_match_depth_factors);
     if (!seeds.empty() && geometry::isValidPose(seeds[b])) starts.push_back(seeds[b]);
     refineBest(b, starts);
     // Refined apart: chamfer matches fit edges by construction, so on a cluttered frame they
     // would outscore the region matches in screening and crowd them out (real Kneel frames).
     refineBest(b, edge_starts);
+    // Nearer only for a bone still found poorly (PoseSearchSettings::
+    // edge_match_nearer_depth_factors): for every bone they doubled the chamfer matching's time.
+    if (foundPoorly(b)) refineBest(b, edgeStarts(settings_.edge_match_nearer_depth_factors));
     if (!neck_parts.empty()) {
       std::vector<geometry::Pose> part_starts = part_joint_starts[b];
       addShapeStarts(b, neck_parts, &part_starts);
@@ -656,10 +676,6 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
   // neighbour: across the flexion range of the joint's envelope (for a bone the image alone
   // finds poorly: merged with its neighbour's silhouette in flexion, occluded, cut by the
   // field's edge), and each of its own hypotheses moved into the envelope.
-  const auto foundPoorly = [&](std::size_t b) {
-    return std::none_of(hypotheses[b].begin(), hypotheses[b].end(),
-                        [&](const Hypothesis& h) { return h.support >= suspect_fraction; });
-  };
   // The missing bone's pose where `known` (the other bone's pose) and the joint put it.
   const auto throughJoint = [](const geometry::Pose& known, const geometry::Pose& child_in_parent,
                                bool child_missing) {

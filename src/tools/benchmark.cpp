@@ -725,6 +725,7 @@ int main(int argc, char** argv) {
   std::string depth_retry_shifts;
   std::string rescue_depth_factors;
   std::string edge_match_depth_factors;
+  std::string edge_match_nearer_depth_factors;
   std::string conditions_option = "image,contact";
   std::string edge_offset_model = "uniform";
   std::string parameterisation = "absolute";
@@ -949,6 +950,9 @@ int main(int argc, char** argv) {
       "search: chamfer matching at these fractions of the distance the image's regions suggest, "
       "comma-separated ('none': no chamfer matching; registration: search: "
       "edge_match_depth_factors)")(
+      "edge-match-nearer-depth-factors", po::value(&edge_match_nearer_depth_factors),
+      "search: ... and at these for a bone no hypothesis fits well after them, comma-separated "
+      "('none': never; registration: search: edge_match_nearer_depth_factors)")(
       "trial-set", po::value(&trial_set)->default_value(trial_set),
       "good (1024x1024) or poor (768x768, noisier, a metal rod across the tibia)")(
       "simulator-config", po::value(&simulator_config),
@@ -1049,6 +1053,8 @@ int main(int argc, char** argv) {
                  &perturbation.search_settings.rescue_depth_factors);
     read_factors(edge_match_depth_factors, "--edge-match-depth-factors",
                  &perturbation.search_settings.edge_match_depth_factors);
+    read_factors(edge_match_nearer_depth_factors, "--edge-match-nearer-depth-factors",
+                 &perturbation.search_settings.edge_match_nearer_depth_factors);
     perturbation.search_settings.validate();
     if (vm.count("staged")) {
       registration::RegistrationStage envelope;

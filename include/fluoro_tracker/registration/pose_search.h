@@ -28,14 +28,18 @@ struct PoseSearchSettings {
   // matchEdges) around the candidate regions, at the distances the region matches suggest:
   // finds a bone whose region merged with its neighbour's (the knee in flexion).
   bool edge_matching = true;
-  // ... at these fractions of the median hinted distance. A thresholded region is the darkest
-  // (or brightest) core of an implant, smaller than its silhouette, so every hint tends to lie
-  // too far from the source: on frames whose regions are only a component's thick parts, or the
-  // overlap of metal and bone in a bright display, the whole knee was hinted 15-30 % too far
-  // (both bones 110-340 mm along the beam) and nothing nearer was ever tried. Measured with
-  // `benchmark --protocol search --trials 4 --frames 10 --conditions contact+ligaments`: see the
-  // README ("Automatic initialisation").
-  std::vector<double> edge_match_depth_factors = {1.0, 0.93, 0.86, 0.8};
+  // ... at these fractions of the median hinted distance (a thresholded region is a little
+  // smaller than the silhouette, so 7 % nearer as well) ...
+  std::vector<double> edge_match_depth_factors = {1.0, 0.93};
+  // ... and at these for a bone that no hypothesis fits at QualitySettings::
+  // suspect_inlier_fraction after them. A region may be only the darkest (or brightest) core of
+  // an implant, so that every hint lies too far from the source: on frames whose regions are
+  // only a component's thick parts, or the overlap of metal and bone in a bright display, the
+  // whole knee was hinted 15-30 % too far (both bones 110-340 mm along the beam) and nothing
+  // nearer was tried. Run for every bone, the nearer distances cost 0.6 s per search and
+  // changed no more frames than this. Measured with `benchmark --protocol search --trials 4
+  // --frames 10 --conditions contact+ligaments`: see the README ("Automatic initialisation").
+  std::vector<double> edge_match_nearer_depth_factors = {0.86, 0.8};
   int edge_matches_per_bone = 6;  // per region
   int edge_match_regions = 2;     // the largest candidate regions are searched
   double edge_roll_step_deg = 15.0;

@@ -636,6 +636,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.search.retry_edge_high_fraction, search.retry_edge_high_fraction);
   EXPECT_EQ(c.search.rescue_depth_factors, search.rescue_depth_factors);
   EXPECT_EQ(c.search.edge_match_depth_factors, search.edge_match_depth_factors);
+  EXPECT_EQ(c.search.edge_match_nearer_depth_factors, search.edge_match_nearer_depth_factors);
 }
 
 TEST(TrialConfig, SearchSectionFillsTheSettingsAndRejectsBadValues) {
@@ -648,7 +649,8 @@ registration:
            envelope_extra_refined: 5, edge_high_fraction: 0.2, retry_edge_high_fraction: 0,
            rescue_depth_factors: [0.95, 1.05], fine_envelope: false,
            fine_envelope_neighbour_inliers: 0.8, fine_envelope_flexion_step_deg: 4,
-           fine_envelope_anterior_step_mm: 3, edge_match_depth_factors: [1.0, 0.9]}
+           fine_envelope_anterior_step_mm: 3, edge_match_depth_factors: [1.0, 0.9],
+           edge_match_nearer_depth_factors: []}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_EQ(c.search.refined_per_bone, 3);
@@ -663,6 +665,7 @@ registration:
   EXPECT_DOUBLE_EQ(c.search.fine_envelope_flexion_step_deg, 4.0);
   EXPECT_DOUBLE_EQ(c.search.fine_envelope_anterior_step_mm, 3.0);
   EXPECT_EQ(c.search.edge_match_depth_factors, (std::vector<double>{1.0, 0.9}));
+  EXPECT_TRUE(c.search.edge_match_nearer_depth_factors.empty());
   expectRegistrationRejected("{search: {wide_screening_px: 0.5}}", "wide_screening_px >= 1");
   expectRegistrationRejected("{search: {envelope_extra_refined: -1}}", "envelope_extra_refined");
   expectRegistrationRejected("{search: {edge_high_fraction: 0}}", "edge_high_fraction");
@@ -673,6 +676,8 @@ registration:
   expectRegistrationRejected("{search: {rescue_depth_factors: [-1.1]}}", "rescue_depth_factors");
   expectRegistrationRejected("{search: {edge_match_depth_factors: [1.0, 0.4]}}",
                              "edge_match_depth_factors");
+  expectRegistrationRejected("{search: {edge_match_nearer_depth_factors: [2.5]}}",
+                             "edge_match_nearer_depth_factors");
   expectRegistrationRejected("{search: {fine_envelope_flexion_step_deg: 0.5}}",
                              "fine_envelope_flexion_step_deg");
   expectRegistrationRejected("{search: {fine_envelope_neighbour_inliers: 1.5}}",

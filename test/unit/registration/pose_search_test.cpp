@@ -618,9 +618,10 @@ TEST(PoseSearch, ARescueAlongTheLinesOfSightLeavesAFalseMinimumAlongTheBeam) {
   s.view_roll_deg = -5.0 + 10.0 * unit(trial_rng);
 
   // The search as it was before chamfer matching nearer than the regions suggest
-  // (edge_match_depth_factors), which ends elsewhere on this rendering and rescues nothing.
+  // (edge_match_nearer_depth_factors), which ends elsewhere on this rendering and rescues
+  // nothing.
   registration::PoseSearchSettings with;
-  with.edge_match_depth_factors = {1.0, 0.93};
+  with.edge_match_nearer_depth_factors.clear();
   ASSERT_FALSE(with.rescue_depth_factors.empty());
   registration::PoseSearchSettings none = with;
   none.rescue_depth_factors.clear();
@@ -631,12 +632,12 @@ TEST(PoseSearch, ARescueAlongTheLinesOfSightLeavesAFalseMinimumAlongTheBeam) {
 namespace {
 
 // ... the finer envelope (PoseSearchSettings::fine_envelope), in the search as it was before
-// chamfer matching nearer than the regions suggest (edge_match_depth_factors), which finds these
-// frames without the finer envelope too.
+// chamfer matching nearer than the regions suggest (edge_match_nearer_depth_factors), which finds
+// these frames without the finer envelope too.
 void expectFoundOnlyWithTheFinerEnvelope(const sim::TrialSimulatorSettings& trial, int index,
                                          int draw) {
   registration::PoseSearchSettings with;
-  with.edge_match_depth_factors = {1.0, 0.93};
+  with.edge_match_nearer_depth_factors.clear();
   ASSERT_TRUE(with.fine_envelope);
   registration::PoseSearchSettings coarse_only = with;
   coarse_only.fine_envelope = false;
@@ -683,14 +684,15 @@ TEST(PoseSearch, AFinerEnvelopeFromATraysReflectionsFindsTheFemoralComponent) {
 // The image's regions are only a component's core (its thick parts in a dark display, metal over
 // bone in a bright one), smaller than its silhouette, so every region match and the chamfer
 // matching at the distances they hint put the whole knee too far from the source. Chamfer
-// matching also at 86 and 80 % of the hinted distance finds it. Of ten noise draws (1-10) each
+// matching also at 86 and 80 % of the hinted distance, for a bone still unfound
+// (edge_match_nearer_depth_factors), finds it. Of ten noise draws (1-10) each
 // frame below was found without those distances in 0 (bright) and 5 (dark), with them in all ten.
 namespace {
 
 void expectFoundOnlyWithNearerChamferMatching(const sim::TrialSimulatorSettings& trial, int index,
                                               int draw) {
   registration::PoseSearchSettings hinted_only;
-  hinted_only.edge_match_depth_factors = {1.0, 0.93};
+  hinted_only.edge_match_nearer_depth_factors.clear();
   expectFoundOnlyWith(trial, index, draw, hinted_only, registration::PoseSearchSettings(),
                       "chamfer matching nearer than the regions suggest");
 }
