@@ -36,9 +36,10 @@ struct PoseSearchSettings {
   // an implant, so that every hint lies too far from the source: on frames whose regions are
   // only a component's thick parts, or the overlap of metal and bone in a bright display, the
   // whole knee was hinted 15-30 % too far (both bones 110-340 mm along the beam) and nothing
-  // nearer was tried. Run for every bone, the nearer distances cost 0.6 s per search and
-  // changed no more frames than this. Measured with `benchmark --protocol search --trials 4
-  // --frames 10 --conditions contact+ligaments`: see the README ("Automatic initialisation").
+  // nearer was tried. Run for every bone, the nearer distances cost 0.6 s per search (+28 %)
+  // and found no more frames over thirteen benchmark seeds than run only for such a bone.
+  // Measured with `benchmark --protocol search --trials 4 --frames 10 --conditions
+  // contact+ligaments`: see the README ("Automatic initialisation").
   std::vector<double> edge_match_nearer_depth_factors = {0.86, 0.8};
   int edge_matches_per_bone = 6;  // per region
   int edge_match_regions = 2;     // the largest candidate regions are searched
