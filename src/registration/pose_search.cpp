@@ -82,17 +82,18 @@ std::vector<geometry::Pose> shapeMatchStarts(const imaging::SilhouetteLibrary& l
   return poses;
 }
 
+// Chamfer distances are truncated at matchEdges' default, so that no larger one is needed.
+constexpr double kChamferTruncationPx = 3.0;
+
 // Starting poses for one bone (camera frame) from chamfer matching of its library on the
-// coarse map's edges, around the largest candidate regions, at `factors` of the distance the
-// region matches suggest (`depths`: from the joint's combined silhouettes and the bone's own
-// matches; their median. A thresholded region is smaller than the silhouette, so the factors
-// are 1 or less).
-std::vector<geometry::Pose> edgeMatchStarts(const imaging::SilhouetteLibrary& library,
-                                            const std::vector<imaging::ImplantBlob>& blobs,
-                                            const imaging::EdgeMap& coarse,
-                                            const std::vector<double>& depths,
-                                            const std::vector<double>& factors,
-                                            const PoseSearchSettings& settings, int threads) {
+// coarse map's edges (`edge_distance`: the map's unsignedDistance(kChamferTruncationPx)),
+// around the largest candidate regions, at `factors` of the distance the region matches suggest
+// (`depths`: from the joint's combined silhouettes and the bone's own matches; their median. A
+// thresholded region is smaller than the silhouette, so the factors are 1 or less).
+std::vector<geometry::Pose> edgeMatchStarts(
+    const imaging::SilhouetteLibrary& library, const std::vector<imaging::ImplantBlob>& blobs,
+    const imaging::EdgeMap& coarse, const cv::Mat& edge_distance, const std::vector<double>& depths,
+    const std::vector<double>& factors, const PoseSearchSettings& settings, int threads) {
   if (depths.empty() || factors.empty()) return {};
   const geometry::XrayCamera& camera = coarse.camera();
   const double focal = std::sqrt(camera.fx() * camera.fy());
@@ -108,9 +109,6 @@ std::vector<geometry::Pose> edgeMatchStarts(const imaging::SilhouetteLibrary& li
   std::sort(largest.begin(), largest.end(),
             [](const auto* a, const auto* b) { return a->area_px > b->area_px; });
   largest.resize(std::min<std::size_t>(largest.size(), settings.edge_match_regions));
-  // Chamfer distances are truncated at matchEdges' default, so that no larger one is needed.
-  constexpr double kTruncationPx = 3.0;
-  const cv::Mat edge_distance = coarse.unsignedDistance(kTruncationPx);
   std::vector<geometry::Pose> poses;
   for (const imaging::ImplantBlob* blob : largest) {
     const double to_map = coarse.scale() / blob->scale;
@@ -125,7 +123,7 @@ std::vector<geometry::Pose> edgeMatchStarts(const imaging::SilhouetteLibrary& li
         std::max(settings.edge_position_step_px, std::max(box.width, box.height) / 30.0);
     for (const imaging::EdgeMatch& match :
          library.matchEdges(edge_distance, box, px_per_m, settings.edge_matches_per_bone,
-                            settings.edge_roll_step_deg, step, kTruncationPx,
+                            settings.edge_roll_step_deg, step, kChamferTruncationPx,
                             imaging::SilhouetteLibrary::kEdgeMinSeparationDeg,
                             imaging::SilhouetteLibrary::kEdgeMinSeparationPx, threads)) {
       poses.push_back(library.cameraFromMesh(match, camera));
@@ -617,10 +615,13 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
     }
     return shape_starts;
   };
+  // The coarse map's chamfer distances, the same for every bone and distance matched.
+  const bool edge_matching = settings_.edge_matching && !regions.empty();
+  const cv::Mat edge_distance =
+      edge_matching ? coarse.unsignedDistance(kChamferTruncationPx) : cv::Mat();
   for (std::size_t b = 0; b < bones; ++b) {
     std::vector<geometry::Pose> starts = joint_starts[b];
     const std::vector<geometry::Pose> shape_starts = addShapeStarts(b, regions, &starts);
-    const bool edge_matching = settings_.edge_matching && !regions.empty();
     if (edge_matching) {
       for (std::size_t k = 0; k < shape_starts.size() && k < 2; ++k) {
         depth_hints[b].push_back(shape_starts[k].translation().z());
@@ -629,8 +630,9 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
     const auto edgeStarts = [&](const std::vector<double>& factors) {
       std::vector<geometry::Pose> edge_starts;
       if (!edge_matching) return edge_starts;
-      for (const geometry::Pose& camera_pose : edgeMatchStarts(
-               *libraries_[b], regions, coarse, depth_hints[b], factors, settings_, threads)) {
+      for (const geometry::Pose& camera_pose :
+           edgeMatchStarts(*libraries_[b], regions, coarse, edge_distance, depth_hints[b], factors,
+                           settings_, threads)) {
         addStart(&edge_starts, camera_pose);
       }
       return edge_starts;
