@@ -273,6 +273,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "stages",
                      "edges",
                      "compute_covariance",
+                     "covariance_offset_gradient_sd_px",
                      "mirror_check",
                      "reflection_retry",
                      "rotation_retry",
@@ -280,6 +281,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "quality",
                      "search"});
   section.read("compute_covariance", &r.compute_covariance);
+  section.read("covariance_offset_gradient_sd_px", &r.covariance_offset_gradient_sd_px);
   const YamlSection quality = section.child("quality");
   quality.allowOnly(
       {"inlier_distance_px", "inliers_at_edge_offset", "lost_inlier_fraction",

@@ -284,17 +284,61 @@ class EdgeOffsetFloorCost : public ceres::SizedCostFunction<1, 1> {
   double inverse_sigma_;
 };
 
+constexpr int kOffsetPatterns = 2;  // the offset gradient's two axes
+
+// One bone's contour term in one view as the covariance's offset-gradient allowance sees it
+// (RegistrationSettings::covariance_offset_gradient_sd_px): the term's cost (owned by the
+// problem), its parameter blocks, and per sample where along the outline's two principal axes
+// it lies, from -1 to 1 (the offset's change per unit of gradient).
+struct OffsetGradientTerm {
+  std::size_t bone = 0;
+  const ceres::CostFunction* cost = nullptr;
+  double* increment = nullptr;
+  double* offset = nullptr;
+  std::vector<Eigen::Vector2d> pattern;
+};
+
+// Each contour sample's offset per unit of gradient along the outline's two principal axes: its
+// position along each axis, scaled to [-1, 1] (the offset's change from the centre to the end).
+std::vector<Eigen::Vector2d> offsetGradientPattern(
+    const std::vector<imaging::ContourPoint>& contour) {
+  std::vector<Eigen::Vector2d> pattern(contour.size(), Eigen::Vector2d::Zero());
+  if (contour.size() < 3) return pattern;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const auto& c : contour) mean += c.pixel;
+  mean /= static_cast<double>(contour.size());
+  Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
+  for (const auto& c : contour) scatter += (c.pixel - mean) * (c.pixel - mean).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> axes(scatter);
+  Eigen::Vector2d reach = Eigen::Vector2d::Zero();
+  for (std::size_t k = 0; k < contour.size(); ++k) {
+    pattern[k] = axes.eigenvectors().transpose() * (contour[k].pixel - mean);
+    reach = reach.cwiseMax(pattern[k].cwiseAbs());
+  }
+  for (auto& f : pattern) {
+    for (int a = 0; a < 2; ++a) f(a) = reach(a) > 0.0 ? f(a) / reach(a) : 0.0;
+  }
+  return pattern;
+}
+
 // Per bone, the covariance of its pose from the solved increments: Ceres' (J^T J)^-1 of the
 // increment [w, t], scaled by the residual variance 2 cost / (residuals - parameters), then
 // carried to ROS's ordering: the origin o moves by t - [o - c]x w, the rotation by w.
 // `compressed_away`: residuals that Ceres does not count (CompressedResidualsCost).
+// Also, into offset_gradient_covariances, how far an unknown edge-offset gradient of
+// `gradient_sd` (map pixels) along each term's outline would move each bone: with H = J^T J and
+// G the offset's Jacobian column weighted by the samples' pattern, the estimate moves by
+// -H^+ J^T G per unit of gradient.
 void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& summary,
                          int compressed_away, std::vector<std::array<double, 6>>& increments,
                          const std::vector<Eigen::Vector3d>& centres,
                          const std::vector<geometry::Pose>& poses,
-                         const std::vector<int>& relative_parent, RegistrationResult* result) {
+                         const std::vector<int>& relative_parent,
+                         const std::vector<OffsetGradientTerm>& gradient_terms, double gradient_sd,
+                         RegistrationResult* result) {
   const std::size_t bones = increments.size();
   result->covariances.assign(bones, Eigen::Matrix<double, 6, 6>::Zero());
+  result->offset_gradient_covariances.assign(bones, Eigen::Matrix<double, 6, 6>::Zero());
   result->covariance_valid.assign(bones, false);
   // (J^T J)^+ over every free parameter block (bones' increments and edge offsets) from one
   // evaluation of the robustified Jacobian: what ceres::Covariance's DENSE_SVD gives (the two
@@ -344,12 +388,72 @@ void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& 
   const int dof =
       summary.num_residuals_reduced + compressed_away - summary.num_effective_parameters_reduced;
   const double variance = dof > 0 ? 2.0 * summary.final_cost / dof : 1.0;
+  // The offset gradients' effect on every free parameter: two columns per term.
+  Eigen::MatrixXd gradient_effect;
+  if (gradient_sd > 0.0 && !gradient_terms.empty()) {
+    Eigen::MatrixXd cross = Eigen::MatrixXd::Zero(columns, kOffsetPatterns * gradient_terms.size());
+    std::vector<double> residuals;
+    std::vector<double> d_increment;
+    std::vector<double> d_offset;
+    for (std::size_t t = 0; t < gradient_terms.size(); ++t) {
+      const OffsetGradientTerm& term = gradient_terms[t];
+      const std::size_t n = term.pattern.size();
+      const auto increment_column = column_of.find(term.increment);
+      if (increment_column == column_of.end() ||
+          static_cast<std::size_t>(term.cost->num_residuals()) != n) {
+        continue;
+      }
+      // The term sees the bone's absolute increment; a parent-relative child's is composed.
+      const int parent = relative_parent[term.bone];
+      double absolute[6];
+      Eigen::Matrix<double, 6, 6, Eigen::RowMajor> d_parent;
+      Eigen::Matrix<double, 6, 6, Eigen::RowMajor> d_relative;
+      auto parent_column = column_of.end();
+      if (parent >= 0) {
+        parent_column = column_of.find(increments[static_cast<std::size_t>(parent)].data());
+        if (parent_column == column_of.end()) continue;
+        composeRelativeIncrement(increments[static_cast<std::size_t>(parent)].data(),
+                                 term.increment, centres[static_cast<std::size_t>(parent)],
+                                 centres[term.bone], absolute, d_parent.data(), d_relative.data());
+      } else {
+        std::copy(term.increment, term.increment + 6, absolute);
+      }
+      residuals.resize(n);
+      d_increment.resize(6 * n);
+      d_offset.resize(n);
+      const double* parameters[] = {absolute, term.offset};
+      double* jacobians[] = {d_increment.data(), d_offset.data()};
+      if (!term.cost->Evaluate(parameters, residuals.data(), jacobians)) continue;
+      const auto offset_column = column_of.find(term.offset);
+      for (int a = 0; a < kOffsetPatterns; ++a) {
+        const Eigen::Index col = static_cast<Eigen::Index>(kOffsetPatterns * t) + a;
+        Eigen::Matrix<double, 6, 1> along_increment = Eigen::Matrix<double, 6, 1>::Zero();
+        for (std::size_t k = 0; k < n; ++k) {
+          const double g = d_offset[k] * term.pattern[k](a);
+          along_increment += g * Eigen::Map<const Eigen::Matrix<double, 6, 1>>(&d_increment[6 * k]);
+          if (offset_column != column_of.end())
+            cross(offset_column->second, col) += d_offset[k] * g;
+        }
+        if (parent >= 0) {
+          cross.block<6, 1>(parent_column->second, col) += d_parent.transpose() * along_increment;
+          cross.block<6, 1>(increment_column->second, col) +=
+              d_relative.transpose() * along_increment;
+        } else {
+          cross.block<6, 1>(increment_column->second, col) += along_increment;
+        }
+      }
+    }
+    gradient_effect = gradient_sd * inverse * cross;
+  }
   for (std::size_t b = 0; b < bones; ++b) {
     const double* block = increments[b].data();
     if (!problem->HasParameterBlock(block) || problem->IsParameterBlockConstant(block)) continue;
     const auto column = column_of.find(block);
     if (column == column_of.end()) continue;
     Eigen::Matrix<double, 6, 6> c = inverse.block<6, 6>(column->second, column->second);
+    // The gradients' effect on this bone's increment (rows: its parameters).
+    Eigen::MatrixXd effect;
+    if (gradient_effect.size() > 0) effect = gradient_effect.middleRows(column->second, 6);
     if (relative_parent[b] >= 0) {
       // A parent-relative child: its absolute increment's covariance through the composition.
       const std::size_t p = static_cast<std::size_t>(relative_parent[b]);
@@ -368,6 +472,11 @@ void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& 
       joint << inverse.block<6, 6>(cp, cp), inverse.block<6, 6>(cp, cb),
           inverse.block<6, 6>(cb, cp), inverse.block<6, 6>(cb, cb);
       c = g * joint * g.transpose();
+      if (gradient_effect.size() > 0) {
+        Eigen::MatrixXd stacked(12, gradient_effect.cols());
+        stacked << gradient_effect.middleRows(cp, 6), gradient_effect.middleRows(cb, 6);
+        effect = g * stacked;
+      }
     }
     const Eigen::Vector3d arm = poses[b].translation() - centres[b];
     Eigen::Matrix<double, 6, 6> to_ros = Eigen::Matrix<double, 6, 6>::Zero();
@@ -376,6 +485,12 @@ void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& 
     to_ros.block<3, 3>(3, 0) = Eigen::Matrix3d::Identity();  // d rotation / d w
     result->covariances[b] = variance * to_ros * c * to_ros.transpose();
     result->covariance_valid[b] = result->covariances[b].allFinite();
+    if (effect.size() > 0) {
+      const Eigen::MatrixXd moved = to_ros * effect;
+      result->offset_gradient_covariances[b] = moved * moved.transpose();
+      result->covariance_valid[b] =
+          result->covariance_valid[b] && result->offset_gradient_covariances[b].allFinite();
+    }
   }
 }
 
@@ -605,6 +720,10 @@ void RegistrationSettings::validate() const {
   }
   if (contact_from_outer_iteration < 0) {
     throw InputError("registration: contact_from_outer_iteration must be >= 0");
+  }
+  if (!(covariance_offset_gradient_sd_px >= 0.0) ||
+      !std::isfinite(covariance_offset_gradient_sd_px)) {
+    throw InputError("registration: covariance_offset_gradient_sd_px must be a finite number >= 0");
   }
   for (std::size_t k = 0; k < stages.size(); ++k) {
     const RegistrationStage& stage = stages[k];
@@ -1161,6 +1280,8 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
         // Maps without the edges deep inside a bone's own silhouette (inner_edge_margin_px):
         // declared before the problem, whose costs point at them.
         std::deque<imaging::EdgeMap> inner_edge_maps;
+        // The contour terms, for the covariance's offset-gradient allowance (last solve only).
+        std::vector<OffsetGradientTerm> gradient_terms;
         ceres::Problem problem(problem_options);
         for (std::size_t b = 0; b < bones_.size(); ++b) {
           if (!result.diverged[b]) centres[b] = result.poses[b] * centroids_[b];
@@ -1264,10 +1385,14 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
             const std::size_t forward_count = points.size();
             double* offset = &offsets[b][v];
             const int bone = static_cast<int>(b);
-            add_block(
+            auto* contour_cost =
                 new ContourDistanceCost(map, std::move(points), std::move(offset_directions),
-                                        centres[b], robust_scale, image_weight, std::move(shifts)),
-                {increments[b].data(), offset}, {bone, -1}, true);
+                                        centres[b], robust_scale, image_weight, std::move(shifts));
+            if (settings_.compute_covariance && finest) {
+              gradient_terms.push_back(OffsetGradientTerm{b, contour_cost, increments[b].data(),
+                                                          offset, offsetGradientPattern(contour)});
+            }
+            add_block(contour_cost, {increments[b].data(), offset}, {bone, -1}, true);
             // The offset is a fraction of a pixel: held, it is free only once the contour is
             // that close (see edge_offset_hold).
             const EdgeOffsetPrior prior = prior_of(b, v);
@@ -1413,7 +1538,8 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
                                 (converged || outer + 1 == outer_iterations);
         if (settings_.compute_covariance && last_solve) {
           estimateCovariances(&problem, summary, compressed_away, increments, centres, linearised,
-                              relative_parent, &result);
+                              relative_parent, gradient_terms,
+                              settings_.covariance_offset_gradient_sd_px * scale, &result);
         }
         if (converged) {
           // Converged before the offsets' floor joined, with an offset below it: one outer
@@ -1514,6 +1640,9 @@ void Registrar::finish(const std::vector<ViewImage>& views, Solution* solution) 
       // The solver counts every contour sample as independent; neighbours share blur, the
       // silhouette's shape and the edge offset's pattern along it (see BoneQuality).
       result.covariances[b] *= result.quality.back().residual_correlation_samples;
+      if (b < result.offset_gradient_covariances.size()) {
+        result.covariances[b] += result.offset_gradient_covariances[b];
+      }
       addCovarianceQuality(result.covariances[b], result.poses[b], views.front().camera,
                            &result.quality.back());
     }

@@ -154,12 +154,25 @@ struct Tally {
   // |error along the beam| / reported standard deviation, every bone-frame with a covariance:
   // for a calibrated Gaussian, median 0.67 and 4.6 % beyond 2.
   std::vector<double> out_of_plane_z_scores;
+  // The same about each bone's own X, Y and Z axes: |rotation error| / standard deviation.
+  std::array<std::vector<double>, 3> rotation_z_scores;
   void addUncertainty(const registration::RegistrationResult& result,
                       const std::vector<PoseError>& errors) {
     for (std::size_t b = 0; b < errors.size() && b < result.quality.size(); ++b) {
       const double sd_mm = 1e3 * result.quality[b].out_of_plane_sd_m;
       if (sd_mm > 0.0)
         out_of_plane_z_scores.push_back(std::abs(errors[b].translation_mm.z()) / sd_mm);
+      if (b >= result.covariance_valid.size() || !result.covariance_valid[b]) continue;
+      // The covariance's rotation is of the fixed frame's rotation vector; the error's is the
+      // bone's (truth^-1 * estimate), so carry the covariance into the bone's axes.
+      const Eigen::Matrix3d axes = result.poses[b].linear();
+      const Eigen::Matrix3d in_bone =
+          axes.transpose() * result.covariances[b].block<3, 3>(3, 3) * axes;
+      for (int a = 0; a < 3; ++a) {
+        const double sd_deg = geometry::radToDeg(std::sqrt(std::max(0.0, in_bone(a, a))));
+        if (sd_deg > 0.0)
+          rotation_z_scores[a].push_back(std::abs(errors[b].rotation_deg(a)) / sd_deg);
+      }
     }
   }
 
@@ -284,6 +297,15 @@ struct Tally {
                 << "|error| / sd " << percentile(out_of_plane_z_scores, 0.5) << " (0.67 if "
                 << "calibrated), beyond 2 sd " << std::setprecision(1)
                 << 100.0 * beyond_two / out_of_plane_z_scores.size() << " % (4.6 %)\n";
+    }
+    for (int a = 0; a < 3; ++a) {
+      const std::vector<double>& z = rotation_z_scores[a];
+      if (z.empty()) continue;
+      const double beyond_two = std::count_if(z.begin(), z.end(), [](double v) { return v > 2.0; });
+      std::cout << std::setprecision(2) << "  rotational standard deviation about the bone's "
+                << "XYZ"[a] << " axis against its error: median |error| / sd " << percentile(z, 0.5)
+                << ", beyond 2 sd " << std::setprecision(1) << 100.0 * beyond_two / z.size()
+                << " %\n";
     }
     std::cout << std::setprecision(1) << "  time per frame: median "
               << percentile(milliseconds, 0.5) << " ms, p95 " << percentile(milliseconds, 0.95)
@@ -973,6 +995,11 @@ int main(int argc, char** argv) {
       "ligament springs: residual per degree (and per mm) outside the knee envelope")(
       "covariance", po::bool_switch(&settings.compute_covariance),
       "estimate each bone's covariance (for the quality status's standard-deviation tests)")(
+      "covariance-offset-gradient-sd-px",
+      po::value(&settings.covariance_offset_gradient_sd_px)
+          ->default_value(settings.covariance_offset_gradient_sd_px),
+      "the covariance's allowance for an unknown edge-offset gradient across each outline "
+      "(full-resolution pixels, centre to end; 0: none)")(
       "inliers-at-edge-offset",
       po::value(&settings.quality.inliers_at_edge_offset)
           ->default_value(settings.quality.inliers_at_edge_offset),

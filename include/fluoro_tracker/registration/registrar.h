@@ -409,6 +409,15 @@ struct RegistrationSettings {
   // Estimate each bone's pose covariance at the solution (Ceres' covariance of the last solve,
   // scaled by the residual variance). Costs a few milliseconds per outer iteration.
   bool compute_covariance = false;
+  // The covariance's allowance for an edge offset that is not uniform along the outline
+  // (full-resolution pixels; 0 leaves it out): the solve fits one offset per bone and view, whose
+  // trade-off with the depth its covariance already carries, but a rim's displayed edge lies
+  // farther inside where the metal thins or the tissue beside it is darker, so the offset also
+  // varies across the outline, and a gradient across it reads as a tilt of the bone. The
+  // covariance adds what an unknown gradient of this standard deviation along each of the
+  // outline's two principal axes (the offset's change from the outline's centre to its far end)
+  // would move the pose by (a "consider" covariance: the gradient is not estimated).
+  double covariance_offset_gradient_sd_px = 0.2;
   MirrorCheckSettings mirror_check;
   ReflectionRetrySettings reflection_retry;
   RotationRetrySettings rotation_retry;
@@ -537,9 +546,13 @@ struct RegistrationResult {
   std::vector<JointResult> joints;
   // With compute_covariance, per bone: the covariance of its pose in the fixed frame, ordered
   // as ROS's PoseWithCovariance (x, y, z in m; rotations about the fixed X, Y, Z in rad), from
-  // the last solve. Contour samples are not independent, so it is optimistic; zero when it
-  // could not be computed (covariance_valid false).
+  // the last solve: Ceres' covariance scaled by the residual variance and by the contour
+  // residuals' correlation along the outline (BoneQuality::residual_correlation_samples), plus
+  // the edge offset's unknown gradient (covariance_offset_gradient_sd_px); zero when it could
+  // not be computed (covariance_valid false).
   std::vector<Eigen::Matrix<double, 6, 6>> covariances;
+  // The second part alone, per bone (same order and units), before it is added in.
+  std::vector<Eigen::Matrix<double, 6, 6>> offset_gradient_covariances;
   std::vector<bool> covariance_valid;
   // Per bone, how well the image supports its final pose (see classifyBones).
   std::vector<BoneQuality> quality;

@@ -362,6 +362,7 @@ registration:
   corner_rounding: false
   threads: 1
   rendered_edges: {enabled: true, saturation_mm: 2.5}
+  covariance_offset_gradient_sd_px: 0.35
   edge_offset_min_px: 0.0
   edge_offset_tracking: {enabled: false, frame_sd_px: 0.3, drift_px: 0.05}
   edges: {clahe: true, canny_high: 60, thresholds_skip_saturated_borders: false,
@@ -386,6 +387,7 @@ registration:
             registration::RegistrationSettings::Parameterisation::kParentRelative);
   EXPECT_FALSE(c.registration.mirror_check.enabled);
   EXPECT_EQ(c.registration.edge_offset_min_px, 0.0);
+  EXPECT_DOUBLE_EQ(c.registration.covariance_offset_gradient_sd_px, 0.35);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.cost_tolerance, 0.2);
   EXPECT_EQ(c.registration.mirror_check.outer_iterations, 3);
   EXPECT_EQ(c.registration.mirror_check.solver_iterations, 5);
@@ -479,6 +481,10 @@ registration:
                              "tracking_prediction 'kalman' is not one of");
   expectRegistrationRejected("{robust_scale_final_px: .nan}", "robust_scale_final_px must be");
   expectRegistrationRejected("{edge_offset_min_px: .nan}", "edge_offset_min_px must be a number");
+  expectRegistrationRejected("{covariance_offset_gradient_sd_px: -0.1}",
+                             "covariance_offset_gradient_sd_px must be");
+  expectRegistrationRejected("{covariance_offset_gradient_sd_px: .inf}",
+                             "covariance_offset_gradient_sd_px must be");
   expectRegistrationRejected("{mirror_check: {cost_tolerance: -0.1}}", "mirror_check needs");
   expectRegistrationRejected("{mirror_check: {min_neutral_gain: -0.1}}", "min_neutral_gain >= 0");
   expectRegistrationRejected("{mirror_check: {neutral_internal_rotation_per_flexion: .inf}}",
@@ -565,6 +571,8 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.registration.threads, d.threads);
   EXPECT_EQ(c.registration.rendered_edges.enabled, d.rendered_edges.enabled);
   EXPECT_EQ(c.registration.rendered_edges.saturation_mm, d.rendered_edges.saturation_mm);
+  EXPECT_DOUBLE_EQ(c.registration.covariance_offset_gradient_sd_px,
+                   d.covariance_offset_gradient_sd_px);
   EXPECT_EQ(c.registration.contact_from_outer_iteration, d.contact_from_outer_iteration);
   EXPECT_EQ(c.registration.mirror_check.enabled, d.mirror_check.enabled);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.cost_tolerance, d.mirror_check.cost_tolerance);

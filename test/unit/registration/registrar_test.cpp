@@ -475,6 +475,43 @@ TEST(Registrar, CovarianceIsLargestAlongTheBeam) {
                   .covariances.empty());
 }
 
+// The covariance's allowance for an edge offset that changes across the outline: it leaves the
+// poses alone, adds a positive part that grows with the square of its standard deviation, and
+// widens the standard deviation along the beam (a gradient moves the outline's ends apart or
+// together, as depth does).
+TEST(Registrar, CovarianceAllowsForAnEdgeOffsetGradientAcrossTheOutline) {
+  const Scene scene;
+  const std::vector<Pose> truth = {scene.frame.femur, scene.frame.tibia};
+  const std::vector<Pose> start = {offset(truth[0], {0.0005, 0.0, 0.001}, Eigen::Vector3d::Zero()),
+                                   truth[1]};
+  const auto solve = [&](double gradient_sd_px) {
+    registration::RegistrationSettings settings;
+    settings.compute_covariance = true;
+    settings.covariance_offset_gradient_sd_px = gradient_sd_px;
+    return registration::Registrar(scene.bones, settings).solve(scene.views, start);
+  };
+  const auto without = solve(0.0);
+  const auto with = solve(0.2);
+  const auto doubled = solve(0.4);
+  for (int b = 0; b < 2; ++b) {
+    const std::string name = scene.bones[b].name;
+    ASSERT_TRUE(with.covariance_valid[b] && without.covariance_valid[b]) << name;
+    EXPECT_LT((with.poses[b].translation() - without.poses[b].translation()).norm(), 1e-12);
+    EXPECT_TRUE(without.offset_gradient_covariances[b].isZero()) << name;
+    const Eigen::Matrix<double, 6, 6>& added = with.offset_gradient_covariances[b];
+    EXPECT_GT(added.norm(), 0.0) << name;
+    EXPECT_LT((with.covariances[b] - without.covariances[b] - added).norm(), 1e-6 * added.norm())
+        << name;
+    EXPECT_GT(added.selfadjointView<Eigen::Lower>().eigenvalues().minCoeff(), -1e-12 * added.norm())
+        << name;
+    EXPECT_NEAR(doubled.offset_gradient_covariances[b].norm(), 4.0 * added.norm(),
+                1e-6 * added.norm())
+        << name;
+    EXPECT_GT(with.quality[b].out_of_plane_sd_m, 1.01 * without.quality[b].out_of_plane_sd_m)
+        << name;
+  }
+}
+
 // The parent-relative parameterisation (the child's increment relative to its parent's) is a
 // change of variables: from the same start it ends in the same minimum as the absolute one
 // (Levenberg-Marquardt's damped steps differ, so within 0.2 mm and 0.5 deg, measured 0.25 deg),
