@@ -199,6 +199,8 @@ registration::PoseSearchSettings readSearchSettings(const YAML::Node& node,
                      "rescue_depth_factors",
                      "edge_match_depth_factors",
                      "edge_match_nearer_depth_factors",
+                     "edge_match_shape_regions",
+                     "edge_match_partner_depth_gap",
                      "envelope_penalty_per_unit",
                      "penetration_penalty_per_mm"});
   section.read("direction_step_deg", &s.direction_step_deg);
@@ -223,6 +225,8 @@ registration::PoseSearchSettings readSearchSettings(const YAML::Node& node,
   section.read("rescue_depth_factors", &s.rescue_depth_factors);
   section.read("edge_match_depth_factors", &s.edge_match_depth_factors);
   section.read("edge_match_nearer_depth_factors", &s.edge_match_nearer_depth_factors);
+  section.read("edge_match_shape_regions", &s.edge_match_shape_regions);
+  section.read("edge_match_partner_depth_gap", &s.edge_match_partner_depth_gap);
   section.read("envelope_penalty_per_unit", &s.envelope_penalty_per_unit);
   section.read("penetration_penalty_per_mm", &s.penetration_penalty_per_mm);
   try {

@@ -50,7 +50,8 @@ std::optional<geometry::Pose> plausibleMatchPose(const imaging::SilhouetteLibrar
 std::vector<geometry::Pose> shapeMatchStarts(const imaging::SilhouetteLibrary& library,
                                              const std::vector<imaging::ImplantBlob>& blobs,
                                              const geometry::XrayCamera& camera,
-                                             const PoseSearchSettings& settings, int threads) {
+                                             const PoseSearchSettings& settings, int threads,
+                                             std::vector<std::size_t>* best_regions = nullptr) {
   const int count = settings.matches_per_bone;
   struct Start {
     double dissimilarity;
@@ -74,6 +75,9 @@ std::vector<geometry::Pose> shapeMatchStarts(const imaging::SilhouetteLibrary& l
   std::vector<bool> region_started(blobs.size(), false);
   for (std::size_t k = 0; k < starts.size(); ++k) {
     // Sorted: a region's first start is its best match.
+    if (!region_started[starts[k].blob] && best_regions != nullptr) {
+      best_regions->push_back(starts[k].blob);
+    }
     if (static_cast<int>(k) < count || !region_started[starts[k].blob]) {
       poses.push_back(starts[k].pose);
       region_started[starts[k].blob] = true;
@@ -87,12 +91,15 @@ constexpr double kChamferTruncationPx = 3.0;
 
 // Starting poses for one bone (camera frame) from chamfer matching of its library on the
 // coarse map's edges (`edge_distance`: the map's unsignedDistance(kChamferTruncationPx)),
-// around the largest candidate regions, at `factors` of the distance the region matches suggest
-// (`depths`: from the joint's combined silhouettes and the bone's own matches; their median. A
-// thresholded region is smaller than the silhouette, so the factors are 1 or less).
+// around the largest candidate regions and the first edge_match_shape_regions of
+// `also_regions` (indices into `blobs`), at `factors` of the distance `depths` suggest (their
+// median: from the joint's combined silhouettes and the bone's own matches, or a joint
+// partner's distance. A thresholded region is smaller than the silhouette, so the factors are
+// 1 or less).
 std::vector<geometry::Pose> edgeMatchStarts(
     const imaging::SilhouetteLibrary& library, const std::vector<imaging::ImplantBlob>& blobs,
-    const imaging::EdgeMap& coarse, const cv::Mat& edge_distance, const std::vector<double>& depths,
+    const std::vector<std::size_t>& also_regions, const imaging::EdgeMap& coarse,
+    const cv::Mat& edge_distance, const std::vector<double>& depths,
     const std::vector<double>& factors, const PoseSearchSettings& settings, int threads) {
   if (depths.empty() || factors.empty()) return {};
   const geometry::XrayCamera& camera = coarse.camera();
@@ -109,6 +116,12 @@ std::vector<geometry::Pose> edgeMatchStarts(
   std::sort(largest.begin(), largest.end(),
             [](const auto* a, const auto* b) { return a->area_px > b->area_px; });
   largest.resize(std::min<std::size_t>(largest.size(), settings.edge_match_regions));
+  // ... and around the given ones, if not among them.
+  for (std::size_t k = 0;
+       k < also_regions.size() && static_cast<int>(k) < settings.edge_match_shape_regions; ++k) {
+    const imaging::ImplantBlob* blob = &blobs[also_regions[k]];
+    if (std::find(largest.begin(), largest.end(), blob) == largest.end()) largest.push_back(blob);
+  }
   std::vector<geometry::Pose> poses;
   for (const imaging::ImplantBlob* blob : largest) {
     const double to_map = coarse.scale() / blob->scale;
@@ -228,6 +241,12 @@ void PoseSearchSettings::validate() const {
         throw InputError(std::string("registration search: ") + name + " must lie in (0.5, 2)");
       }
     }
+  }
+  if (edge_match_shape_regions < 0 || !(edge_match_partner_depth_gap >= 0.0) ||
+      !std::isfinite(edge_match_partner_depth_gap)) {
+    throw InputError(
+        "registration search: edge_match_shape_regions >= 0 and a finite "
+        "edge_match_partner_depth_gap >= 0 are needed");
   }
   if (edge_matches_per_bone < 0 || edge_match_regions < 0 ||
       !(edge_roll_step_deg > 0.5 && edge_roll_step_deg <= 90.0) ||
@@ -601,43 +620,48 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
   jointMatchStarts(regions, &joint_starts, &depth_hints);
   if (!neck_parts.empty()) jointMatchStarts(neck_parts, &part_joint_starts, nullptr);
   // Bone b's shape matches to the candidates, each at a few distances (returned as matched).
-  const auto addShapeStarts = [&](std::size_t b,
-                                  const std::vector<imaging::ImplantBlob>& candidates,
-                                  std::vector<geometry::Pose>* starts) {
-    const std::vector<geometry::Pose> shape_starts =
-        shapeMatchStarts(*libraries_[b], candidates, first.camera, settings_, threads);
-    for (const geometry::Pose& camera_pose : shape_starts) {
-      for (const double depth_factor : {1.0, 0.93, 0.86}) {
-        geometry::Pose scaled = camera_pose;
-        scaled.translation() *= depth_factor;
-        addStart(starts, scaled);
-      }
-    }
-    return shape_starts;
-  };
+  const auto addShapeStarts =
+      [&](std::size_t b, const std::vector<imaging::ImplantBlob>& candidates,
+          std::vector<geometry::Pose>* starts, std::vector<std::size_t>* best_regions = nullptr) {
+        const std::vector<geometry::Pose> shape_starts = shapeMatchStarts(
+            *libraries_[b], candidates, first.camera, settings_, threads, best_regions);
+        for (const geometry::Pose& camera_pose : shape_starts) {
+          for (const double depth_factor : {1.0, 0.93, 0.86}) {
+            geometry::Pose scaled = camera_pose;
+            scaled.translation() *= depth_factor;
+            addStart(starts, scaled);
+          }
+        }
+        return shape_starts;
+      };
   // The coarse map's chamfer distances, the same for every bone and distance matched.
   const bool edge_matching = settings_.edge_matching && !regions.empty();
   const cv::Mat edge_distance =
       edge_matching ? coarse.unsignedDistance(kChamferTruncationPx) : cv::Mat();
   for (std::size_t b = 0; b < bones; ++b) {
     std::vector<geometry::Pose> starts = joint_starts[b];
-    const std::vector<geometry::Pose> shape_starts = addShapeStarts(b, regions, &starts);
+    std::vector<std::size_t> best_shape_regions;
+    const std::vector<geometry::Pose> shape_starts =
+        addShapeStarts(b, regions, &starts, &best_shape_regions);
     if (edge_matching) {
       for (std::size_t k = 0; k < shape_starts.size() && k < 2; ++k) {
         depth_hints[b].push_back(shape_starts[k].translation().z());
       }
     }
-    const auto edgeStarts = [&](const std::vector<double>& factors) {
+    const auto edgeStarts = [&](const std::vector<double>& factors,
+                                const std::vector<double>& depths,
+                                const std::vector<std::size_t>& also_regions) {
       std::vector<geometry::Pose> edge_starts;
       if (!edge_matching) return edge_starts;
       for (const geometry::Pose& camera_pose :
-           edgeMatchStarts(*libraries_[b], regions, coarse, edge_distance, depth_hints[b], factors,
-                           settings_, threads)) {
+           edgeMatchStarts(*libraries_[b], regions, also_regions, coarse, edge_distance, depths,
+                           factors, settings_, threads)) {
         addStart(&edge_starts, camera_pose);
       }
       return edge_starts;
     };
-    const std::vector<geometry::Pose> edge_starts = edgeStarts(settings_.edge_match_depth_factors);
+    const std::vector<geometry::Pose> edge_starts =
+        edgeStarts(settings_.edge_match_depth_factors, depth_hints[b], {});
     if (!seeds.empty() && geometry::isValidPose(seeds[b])) starts.push_back(seeds[b]);
     refineBest(b, starts);
     // Refined apart: chamfer matches fit edges by construction, so on a cluttered frame they
@@ -645,7 +669,33 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
     refineBest(b, edge_starts);
     // Nearer only for a bone still found poorly (PoseSearchSettings::
     // edge_match_nearer_depth_factors): for every bone they doubled the chamfer matching's time.
-    if (foundPoorly(b)) refineBest(b, edgeStarts(settings_.edge_match_nearer_depth_factors));
+    if (foundPoorly(b))
+      refineBest(b, edgeStarts(settings_.edge_match_nearer_depth_factors, depth_hints[b], {}));
+    // At a joint partner's distance, for a bone still found poorly whose regions hint another:
+    // the bones of a joint lie at nearly the same distance from the source, and a partner found
+    // well knows it better than a region that a wire has spoiled. Around the bone's best-matching
+    // regions as well: the largest may be a platform's or a table's bands.
+    const double partner_gap = settings_.edge_match_partner_depth_gap;
+    if (partner_gap > 0.0 && edge_matching && foundPoorly(b)) {
+      double partner_depth = 0.0;
+      double partner_support = suspect_fraction;
+      for (const JointModel& joint : registrar_->joints()) {
+        const int partner = joint.parent == static_cast<int>(b)  ? joint.child
+                            : joint.child == static_cast<int>(b) ? joint.parent
+                                                                 : -1;
+        if (partner < 0) continue;
+        for (const Hypothesis& h : hypotheses[static_cast<std::size_t>(partner)]) {
+          if (h.support < partner_support) continue;
+          partner_support = h.support;
+          partner_depth = (first.camera.worldFromCamera().inverse() * h.pose.translation()).z();
+        }
+      }
+      const double hinted = depth_hints[b].empty() ? 0.0 : median(depth_hints[b]);
+      if (partner_depth > 0.0 && !(std::abs(hinted / partner_depth - 1.0) <= partner_gap)) {
+        refineBest(
+            b, edgeStarts(settings_.edge_match_depth_factors, {partner_depth}, best_shape_regions));
+      }
+    }
     if (!neck_parts.empty()) {
       std::vector<geometry::Pose> part_starts = part_joint_starts[b];
       addShapeStarts(b, neck_parts, &part_starts);

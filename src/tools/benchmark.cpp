@@ -975,6 +975,17 @@ int main(int argc, char** argv) {
       "edge-match-nearer-depth-factors", po::value(&edge_match_nearer_depth_factors),
       "search: ... and at these for a bone no hypothesis fits well after them, comma-separated "
       "('none': never; registration: search: edge_match_nearer_depth_factors)")(
+      "edge-match-shape-regions",
+      po::value(&perturbation.search_settings.edge_match_shape_regions)
+          ->default_value(perturbation.search_settings.edge_match_shape_regions),
+      "search: the partner-distance chamfer matching also around this many regions a bone's "
+      "silhouettes match best (registration: search: edge_match_shape_regions)")(
+      "edge-match-partner-depth-gap",
+      po::value(&perturbation.search_settings.edge_match_partner_depth_gap)
+          ->default_value(perturbation.search_settings.edge_match_partner_depth_gap),
+      "search: a bone still unfound is matched at its joint partner's distance when its regions "
+      "suggest one this fraction away (0: never; registration: search: "
+      "edge_match_partner_depth_gap)")(
       "trial-set", po::value(&trial_set)->default_value(trial_set),
       "good (1024x1024) or poor (768x768, noisier, a metal rod across the tibia)")(
       "simulator-config", po::value(&simulator_config),

@@ -43,6 +43,16 @@ struct PoseSearchSettings {
   std::vector<double> edge_match_nearer_depth_factors = {0.86, 0.8};
   int edge_matches_per_bone = 6;  // per region
   int edge_match_regions = 2;     // the largest candidate regions are searched
+  // A bone that no hypothesis fits at the suspect inlier fraction after the chamfer matching at
+  // its regions' distances is matched again at the distance of its joint partner's best-fitting
+  // hypothesis (one that fits at least that well) when its regions' distance differs from the
+  // partner's by more than this fraction (0: never), around the largest regions and the
+  // edge_match_shape_regions regions its silhouettes match best. A joint's bones lie at nearly
+  // the same distance from the source; a wire joined to a tray's region misjudged its distance
+  // by half (a real Kneel frame with a wire drawn across the tray: 1.5 m against 1.03 m), and
+  // there the largest regions were the platform's bands.
+  double edge_match_partner_depth_gap = 0.1;
+  int edge_match_shape_regions = 2;
   double edge_roll_step_deg = 15.0;
   double edge_position_step_px = 3.0;  // screening-scale pixels
   // Every start (matches, their mirrors, envelope samples) is screened by how much of its

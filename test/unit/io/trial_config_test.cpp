@@ -645,6 +645,8 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.search.rescue_depth_factors, search.rescue_depth_factors);
   EXPECT_EQ(c.search.edge_match_depth_factors, search.edge_match_depth_factors);
   EXPECT_EQ(c.search.edge_match_nearer_depth_factors, search.edge_match_nearer_depth_factors);
+  EXPECT_EQ(c.search.edge_match_shape_regions, search.edge_match_shape_regions);
+  EXPECT_DOUBLE_EQ(c.search.edge_match_partner_depth_gap, search.edge_match_partner_depth_gap);
 }
 
 TEST(TrialConfig, SearchSectionFillsTheSettingsAndRejectsBadValues) {
@@ -658,7 +660,8 @@ registration:
            rescue_depth_factors: [0.95, 1.05], fine_envelope: false,
            fine_envelope_neighbour_inliers: 0.8, fine_envelope_flexion_step_deg: 4,
            fine_envelope_anterior_step_mm: 3, edge_match_depth_factors: [1.0, 0.9],
-           edge_match_nearer_depth_factors: []}
+           edge_match_nearer_depth_factors: [], edge_match_shape_regions: 1,
+           edge_match_partner_depth_gap: 0.2}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_EQ(c.search.refined_per_bone, 3);
@@ -674,6 +677,8 @@ registration:
   EXPECT_DOUBLE_EQ(c.search.fine_envelope_anterior_step_mm, 3.0);
   EXPECT_EQ(c.search.edge_match_depth_factors, (std::vector<double>{1.0, 0.9}));
   EXPECT_TRUE(c.search.edge_match_nearer_depth_factors.empty());
+  EXPECT_EQ(c.search.edge_match_shape_regions, 1);
+  EXPECT_DOUBLE_EQ(c.search.edge_match_partner_depth_gap, 0.2);
   expectRegistrationRejected("{search: {wide_screening_px: 0.5}}", "wide_screening_px >= 1");
   expectRegistrationRejected("{search: {envelope_extra_refined: -1}}", "envelope_extra_refined");
   expectRegistrationRejected("{search: {edge_high_fraction: 0}}", "edge_high_fraction");
@@ -686,6 +691,10 @@ registration:
                              "edge_match_depth_factors");
   expectRegistrationRejected("{search: {edge_match_nearer_depth_factors: [2.5]}}",
                              "edge_match_nearer_depth_factors");
+  expectRegistrationRejected("{search: {edge_match_shape_regions: -1}}",
+                             "edge_match_shape_regions >= 0");
+  expectRegistrationRejected("{search: {edge_match_partner_depth_gap: .nan}}",
+                             "edge_match_partner_depth_gap >= 0");
   expectRegistrationRejected("{search: {fine_envelope_flexion_step_deg: 0.5}}",
                              "fine_envelope_flexion_step_deg");
   expectRegistrationRejected("{search: {fine_envelope_neighbour_inliers: 1.5}}",

@@ -1,5 +1,6 @@
 #include "fluoro_tracker/registration/pose_search.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -758,4 +759,40 @@ TEST(PoseSearch, FindsBothComponentsOnTheRealKneelFrames) {
       EXPECT_LE(e.rotation_deg.norm(), 3.0) << "frame " << frame.name << ", bone " << b;
     }
   }
+}
+
+// A wire (5 px, as dark as the implants) drawn across the tray's stem on the real Kneel frame
+// 0160, from the platform below the knee to the soft tissue above it. Thresholded, the wire
+// joins the tray's region only where it crosses tissue dark enough, so no straight strip is long
+// enough to cut, and the tray's region with the wire's stub on it matches no silhouette at the
+// tray's distance (its shape hints 1.4-1.5 m against 1.03 m). The chamfer matching then finds the
+// tray around that region (the largest regions are the platform's bands) at the femoral
+// component's distance; without both, the tray ends 25 mm and 120 deg off.
+TEST(PoseSearch, FindsTheTrayOfARealKneelFrameWithAWireDrawnAcrossIt) {
+  const test_support::KneelStudy kneel;
+  const auto& frame = kneel.frames[0];
+  ASSERT_EQ(frame.name, "0160");
+  ASSERT_FALSE(frame.image.empty());
+  cv::Mat image = frame.image.clone();
+  std::vector<uchar> grey(image.datastart, image.dataend);
+  std::nth_element(grey.begin(), grey.begin() + grey.size() / 200, grey.end());
+  const int wire = grey[grey.size() / 200] + 10;  // the 0.5th percentile: the implants' metal
+  cv::line(image, {560, 780}, {860, 300}, cv::Scalar(wire), 5, cv::LINE_AA);
+  cv::GaussianBlur(image, image, cv::Size(0, 0), 1.0);
+  const auto trayError = [&](const registration::PoseSearchSettings& settings) {
+    const registration::PoseSearch search(kneel.registrar, settings);
+    const auto found = search.search({{image, frame.camera}});
+    return registration::poseError(found.registration.poses[1], frame.reference[1],
+                                   Pose::Identity());
+  };
+  const auto e = trayError(registration::PoseSearchSettings());
+  EXPECT_LE(std::hypot(e.translation_mm.x(), e.translation_mm.y()), 2.0);
+  EXPECT_LE(e.rotation_deg.norm(), 3.0);
+  registration::PoseSearchSettings before;
+  before.edge_match_shape_regions = 0;
+  before.edge_match_partner_depth_gap = 0.0;
+  const auto unfound = trayError(before);
+  EXPECT_TRUE(std::hypot(unfound.translation_mm.x(), unfound.translation_mm.y()) > 2.0 ||
+              unfound.rotation_deg.norm() > 3.0)
+      << "the wire must defeat the search without the two for the test to mean anything";
 }
