@@ -473,6 +473,8 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
   const std::size_t bones = registrar_->bones().size();
   const int threads = registrar_->settings().threads;
   const ViewImage& first = views.front();
+  const geometry::Pose& world_from_camera = first.camera.worldFromCamera();
+  const geometry::Pose camera_from_world = world_from_camera.inverse();
   PoseSearchResult found;
   found.regions = static_cast<int>(blobs.size());
   // Parts of regions split at a neck are matched and refined apart from the whole regions: on
@@ -558,9 +560,9 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
   // A camera-frame start moved to the fixed frame, with its mirror hypothesis.
   const auto addStart = [&](std::vector<geometry::Pose>* starts,
                             const geometry::Pose& camera_pose) {
-    starts->push_back(first.camera.worldFromCamera() * camera_pose);
+    starts->push_back(world_from_camera * camera_pose);
     if (settings_.mirror_hypotheses) {
-      starts->push_back(first.camera.worldFromCamera() * mirroredAcrossBeam(camera_pose));
+      starts->push_back(world_from_camera * mirroredAcrossBeam(camera_pose));
     }
   };
 
@@ -634,6 +636,24 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
         }
         return shape_starts;
       };
+  // The distance from the source of bone b's joint partners' best-fitting hypothesis, if one
+  // fits at the suspect inlier fraction; 0 otherwise.
+  const auto partnerDepth = [&](std::size_t b) {
+    double depth = 0.0;
+    double support = suspect_fraction;
+    for (const JointModel& joint : registrar_->joints()) {
+      const int partner = joint.parent == static_cast<int>(b)  ? joint.child
+                          : joint.child == static_cast<int>(b) ? joint.parent
+                                                               : -1;
+      if (partner < 0) continue;
+      for (const Hypothesis& h : hypotheses[static_cast<std::size_t>(partner)]) {
+        if (h.support < support) continue;
+        support = h.support;
+        depth = (camera_from_world * h.pose.translation()).z();
+      }
+    }
+    return depth;
+  };
   // The coarse map's chamfer distances, the same for every bone and distance matched.
   const bool edge_matching = settings_.edge_matching && !regions.empty();
   const cv::Mat edge_distance =
@@ -677,19 +697,7 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
     // regions as well: the largest may be a platform's or a table's bands.
     const double partner_gap = settings_.edge_match_partner_depth_gap;
     if (partner_gap > 0.0 && edge_matching && foundPoorly(b)) {
-      double partner_depth = 0.0;
-      double partner_support = suspect_fraction;
-      for (const JointModel& joint : registrar_->joints()) {
-        const int partner = joint.parent == static_cast<int>(b)  ? joint.child
-                            : joint.child == static_cast<int>(b) ? joint.parent
-                                                                 : -1;
-        if (partner < 0) continue;
-        for (const Hypothesis& h : hypotheses[static_cast<std::size_t>(partner)]) {
-          if (h.support < partner_support) continue;
-          partner_support = h.support;
-          partner_depth = (first.camera.worldFromCamera().inverse() * h.pose.translation()).z();
-        }
-      }
+      const double partner_depth = partnerDepth(b);
       const double hinted = depth_hints[b].empty() ? 0.0 : median(depth_hints[b]);
       if (partner_depth > 0.0 && !(std::abs(hinted / partner_depth - 1.0) <= partner_gap)) {
         refineBest(
@@ -763,8 +771,6 @@ PoseSearchResult PoseSearch::searchPass(const EdgePass& pass, const std::vector<
   }
   // ... and a bone still found poorly, beside a neighbour found well, from that neighbour and its
   // reflections across the beam through the finer envelope (PoseSearchSettings::fine_envelope).
-  const geometry::Pose& world_from_camera = first.camera.worldFromCamera();
-  const geometry::Pose camera_from_world = world_from_camera.inverse();
   for (std::size_t j = 0; settings_.fine_envelope && j < registrar_->joints().size(); ++j) {
     const JointModel& joint = registrar_->joints()[j];
     for (const bool child_missing : {true, false}) {

@@ -100,6 +100,17 @@ double percentile(std::vector<double> v, double q) {
   return v[static_cast<std::size_t>(q * (v.size() - 1) + 0.5)];
 }
 
+// "  <what>: median |error| / sd ..., beyond 2 sd ... %", against a calibrated Gaussian's 0.67
+// and 4.6 %; nothing when there are no scores.
+void printCalibration(const std::string& what, const std::vector<double>& z_scores) {
+  if (z_scores.empty()) return;
+  const double beyond_two =
+      std::count_if(z_scores.begin(), z_scores.end(), [](double z) { return z > 2.0; });
+  std::cout << std::setprecision(2) << "  " << what << ": median |error| / sd "
+            << percentile(z_scores, 0.5) << " (0.67 if calibrated), beyond 2 sd "
+            << std::setprecision(1) << 100.0 * beyond_two / z_scores.size() << " % (4.6 %)\n";
+}
+
 struct Tally {
   registration::SuccessCriterion criterion = registration::kChapter3Criterion;
   // Knee coordinates of the result against the truth's, successful frames: flexion,
@@ -288,24 +299,12 @@ struct Tally {
               << good_far_along_beam_flagged << "/" << good_far_along_beam
               << " with a bone more than " << kFarAlongBeamMm
               << " mm off along the beam were flagged\n";
-    if (!out_of_plane_z_scores.empty()) {
-      const double beyond_two =
-          std::count_if(out_of_plane_z_scores.begin(), out_of_plane_z_scores.end(),
-                        [](double z) { return z > 2.0; });
-      std::cout << std::setprecision(2)
-                << "  out-of-plane standard deviation against the error along the beam: median "
-                << "|error| / sd " << percentile(out_of_plane_z_scores, 0.5) << " (0.67 if "
-                << "calibrated), beyond 2 sd " << std::setprecision(1)
-                << 100.0 * beyond_two / out_of_plane_z_scores.size() << " % (4.6 %)\n";
-    }
+    printCalibration("out-of-plane standard deviation against the error along the beam",
+                     out_of_plane_z_scores);
     for (int a = 0; a < 3; ++a) {
-      const std::vector<double>& z = rotation_z_scores[a];
-      if (z.empty()) continue;
-      const double beyond_two = std::count_if(z.begin(), z.end(), [](double v) { return v > 2.0; });
-      std::cout << std::setprecision(2) << "  rotational standard deviation about the bone's "
-                << "XYZ"[a] << " axis against its error: median |error| / sd " << percentile(z, 0.5)
-                << ", beyond 2 sd " << std::setprecision(1) << 100.0 * beyond_two / z.size()
-                << " %\n";
+      printCalibration(std::string("rotational standard deviation about the bone's ") + "XYZ"[a] +
+                           " axis against its error",
+                       rotation_z_scores[a]);
     }
     std::cout << std::setprecision(1) << "  time per frame: median "
               << percentile(milliseconds, 0.5) << " ms, p95 " << percentile(milliseconds, 0.95)
