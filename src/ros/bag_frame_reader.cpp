@@ -6,6 +6,7 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <tf2/buffer_core.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -20,17 +21,44 @@ namespace ros_bridge {
 
 namespace {
 
+const std::string kRawType = "sensor_msgs/Image";
+const std::string kCompressedType = "sensor_msgs/CompressedImage";
+const std::string kCompressedSuffix = "/compressed";
+
+// image_transport's name for a stream: ".../image_raw" for ".../image_raw/compressed".
+std::string baseTopic(const std::string& image_topic, bool compressed) {
+  const std::size_t n = kCompressedSuffix.size();
+  if (compressed && image_topic.size() > n &&
+      image_topic.compare(image_topic.size() - n, n, kCompressedSuffix) == 0) {
+    return image_topic.substr(0, image_topic.size() - n);
+  }
+  return image_topic;
+}
+
 std::string siblingInfoTopic(const std::string& image_topic) {
   const auto slash = image_topic.rfind('/');
   return (slash == std::string::npos ? std::string() : image_topic.substr(0, slash)) +
          "/camera_info";
 }
 
+// One image message of either type, kept until its view's camera_info has arrived.
+struct ImageMessage {
+  sensor_msgs::Image::ConstPtr raw;
+  sensor_msgs::CompressedImage::ConstPtr compressed;
+
+  const std_msgs::Header& header() const { return raw ? raw->header : compressed->header; }
+  // Throws InputError for an encoding or compressed data that is not a grey frame.
+  cv::Mat decode() const {
+    return raw ? fromImageMessage(*raw) : fromCompressedImageMessage(*compressed);
+  }
+};
+
 }  // namespace
 
 struct BagFrameReader::Impl {
   rosbag::Bag bag;
   std::vector<std::string> info_topics;
+  std::vector<bool> compressed;  // per view: sensor_msgs/CompressedImage
   tf2::BufferCore static_tf{ros::Duration(1e6)};
 };
 
@@ -53,20 +81,32 @@ BagFrameReader::BagFrameReader(const std::string& bag_path, std::vector<std::str
     types[c->topic] = c->datatype;
   }
   if (image_topics_.empty()) {
+    // Every camera stream once: its raw images, or its compressed ones when the bag has only
+    // those (a bag recorded from image_transport's compressed transport).
     for (const auto& [topic, type] : types) {
-      if (type == "sensor_msgs/Image") image_topics_.push_back(topic);
+      if (type == kRawType) image_topics_.push_back(topic);
+    }
+    for (const auto& [topic, type] : types) {
+      if (type == kCompressedType) {
+        const auto base = types.find(baseTopic(topic, true));
+        if (base == types.end() || base->second != kRawType) image_topics_.push_back(topic);
+      }
     }
   }
-  if (image_topics_.empty())
-    throw InputError("bag '" + bag_path + "' has no sensor_msgs/Image topic");
+  if (image_topics_.empty()) {
+    throw InputError("bag '" + bag_path + "' has no " + kRawType + " or " + kCompressedType +
+                     " topic");
+  }
   for (const auto& topic : image_topics_) {
     if (!topics.count(topic))
       throw InputError("bag '" + bag_path + "' has no topic '" + topic + "'");
-    if (types[topic] != "sensor_msgs/Image") {
+    if (types[topic] != kRawType && types[topic] != kCompressedType) {
       throw InputError("topic '" + topic + "' in bag '" + bag_path + "' carries " + types[topic] +
-                       ", not sensor_msgs/Image");
+                       ", not " + kRawType + " or " + kCompressedType);
     }
-    const std::string info = siblingInfoTopic(topic);
+    const bool compressed = types[topic] == kCompressedType;
+    impl_->compressed.push_back(compressed);
+    const std::string info = siblingInfoTopic(baseTopic(topic, compressed));
     if (!topics.count(info)) {
       throw InputError("bag '" + bag_path + "' has no camera_info for '" + topic + "' (expected '" +
                        info + "')");
@@ -112,9 +152,10 @@ void BagFrameReader::read(const FrameCallback& consume, const SkipCallback& skip
   };
   // Images that arrived before any camera_info of their view (in a bag, an image and the
   // camera_info of the same stamp come in either order): held until the camera_info arrives.
-  std::vector<std::vector<sensor_msgs::Image::ConstPtr>> waiting(views);
-  const auto handleImage = [&](std::size_t v, const sensor_msgs::Image& msg) {
-    const double stamp = msg.header.stamp.toSec();
+  std::vector<std::vector<ImageMessage>> waiting(views);
+  const auto handleImage = [&](std::size_t v, const ImageMessage& msg) {
+    const std_msgs::Header& header = msg.header();
+    const double stamp = header.stamp.toSec();
     auto it = pending.find(stamp);
     if (it == pending.end()) {
       flushOlderThan(stamp);
@@ -131,13 +172,13 @@ void BagFrameReader::read(const FrameCallback& consume, const SkipCallback& skip
                          (info_problem[v].empty() ? "" : " (" + info_problem[v] + ")"));
       }
       geometry::XrayCamera camera = info[v]->camera();
-      if (static_cast<int>(msg.width) != camera.width() ||
-          static_cast<int>(msg.height) != camera.height()) {
-        throw InputError("image on '" + image_topics_[v] + "' is " + std::to_string(msg.width) +
-                         "x" + std::to_string(msg.height) + " but its camera_info says " +
+      cv::Mat image = msg.decode();
+      if (image.cols != camera.width() || image.rows != camera.height()) {
+        throw InputError("image on '" + image_topics_[v] + "' is " + std::to_string(image.cols) +
+                         "x" + std::to_string(image.rows) + " but its camera_info says " +
                          std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
       }
-      if (!msg.header.frame_id.empty()) camera.setFrameId(msg.header.frame_id);
+      if (!header.frame_id.empty()) camera.setFrameId(header.frame_id);
       if (fixed_frame_.empty()) fixed_frame_ = camera.frameId();
       if (camera.frameId() != fixed_frame_) {
         try {
@@ -149,7 +190,7 @@ void BagFrameReader::read(const FrameCallback& consume, const SkipCallback& skip
                            fixed_frame_ + "' by /tf_static in the bag: " + e.what());
         }
       }
-      p.images[v] = info[v]->rectify(fromImageMessage(msg));
+      p.images[v] = info[v]->rectify(image);
       p.cameras[v] = camera;
       ++p.filled;
     } catch (const InputError& e) {
@@ -184,22 +225,27 @@ void BagFrameReader::read(const FrameCallback& consume, const SkipCallback& skip
           info_problem[v] = e.what();
         }
         if (info[v]) {
-          for (const auto& image : waiting[v]) handleImage(v, *image);
+          for (const auto& image : waiting[v]) handleImage(v, image);
           waiting[v].clear();
         }
       } else if (topic == image_topics_[v]) {
-        const auto msg = m.instantiate<sensor_msgs::Image>();
-        if (!msg) continue;
+        ImageMessage msg;
+        if (impl_->compressed[v]) {
+          msg.compressed = m.instantiate<sensor_msgs::CompressedImage>();
+        } else {
+          msg.raw = m.instantiate<sensor_msgs::Image>();
+        }
+        if (!msg.raw && !msg.compressed) continue;
         if (!info[v]) {
           waiting[v].push_back(msg);
         } else {
-          handleImage(v, *msg);
+          handleImage(v, msg);
         }
       }
     }
   }
   for (std::size_t v = 0; v < views; ++v) {
-    for (const auto& image : waiting[v]) handleImage(v, *image);  // reported: no camera_info
+    for (const auto& image : waiting[v]) handleImage(v, image);  // reported: no camera_info
   }
   flushOlderThan(std::numeric_limits<double>::infinity());
 }

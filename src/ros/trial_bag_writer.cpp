@@ -10,8 +10,9 @@ namespace fluoro_tracker {
 namespace ros_bridge {
 
 TrialBagWriter::TrialBagWriter(const std::string& path, const std::vector<io::FluoroView>& views,
-                               const std::string& fixed_frame, double first_stamp_s)
-    : views_(views) {
+                               const std::string& fixed_frame, double first_stamp_s,
+                               std::optional<Compression> compression)
+    : views_(views), compression_(compression) {
   try {
     bag_.open(path, rosbag::bagmode::Write);
   } catch (const rosbag::BagException& e) {
@@ -52,14 +53,18 @@ void TrialBagWriter::write(int index, double stamp_s, const std::vector<cv::Mat>
   for (std::size_t v = 0; v < views_.size(); ++v) {
     sensor_msgs::CameraInfo info = toCameraInfo(views_[v].camera, stamp, views_[v].distortion);
     info.header.seq = sequence_;
-    sensor_msgs::Image image;
     try {
-      image = toImageMessage(images[v], info.header);
+      if (compression_) {
+        bag_.write(imageTopic(views_[v]), stamp,
+                   toCompressedImageMessage(images[v], info.header, compression_->format,
+                                            compression_->jpeg_quality));
+      } else {
+        bag_.write(imageTopic(views_[v]), stamp, toImageMessage(images[v], info.header));
+      }
     } catch (const InputError& e) {
       throw InputError("frame " + std::to_string(index) + ", view " + views_[v].name + ": " +
                        e.what());
     }
-    bag_.write(imageTopic(views_[v]), stamp, image);
     bag_.write(cameraInfoTopic(views_[v]), stamp, info);
   }
   ++sequence_;

@@ -62,6 +62,8 @@ int main(int argc, char** argv) {
       "view) for track_bag and the tracking node\n\nOptions");
   std::vector<std::string> image_dirs, calibration_paths, jts_args, mesh_args;
   std::string output_path, reference_path, trial_yaml_path, mesh_units_text = "mm";
+  std::string compression_text = "none";
+  int jpeg_quality = 95;
   double rate_hz = 30.0;
   double start_stamp_s = 1.0;
   options.add_options()("help,h", "show this help")(
@@ -74,6 +76,11 @@ int main(int argc, char** argv) {
       "rate-hz", po::value(&rate_hz)->default_value(rate_hz), "frame rate of the stamps")(
       "start-stamp-s", po::value(&start_stamp_s)->default_value(start_stamp_s),
       "stamp of the first frame (bags cannot hold 0)")(
+      "compression", po::value(&compression_text)->default_value(compression_text),
+      "none (sensor_msgs/Image), png (lossless) or jpeg (8-bit frames, lossy): png and jpeg are "
+      "stored as image_transport's compressed transport does, on .../image_raw/compressed")(
+      "jpeg-quality", po::value(&jpeg_quality)->default_value(jpeg_quality),
+      "JPEG quality, 1-100 (--compression jpeg)")(
       "jts", po::value(&jts_args),
       "BONE=FILE: a bone's JointTrack poses (.jts, one row per "
       "frame in file order, first view's camera frame); repeat per bone")(
@@ -102,6 +109,17 @@ int main(int argc, char** argv) {
     }
     if (!(start_stamp_s > 0.0) || !std::isfinite(start_stamp_s)) {
       throw InputError("--start-stamp-s must be positive (bags cannot hold time 0)");
+    }
+    std::optional<ros_bridge::TrialBagWriter::Compression> compression;
+    if (compression_text != "none" && compression_text != "png" && compression_text != "jpeg") {
+      throw InputError("--compression '" + compression_text + "' is not none, png or jpeg");
+    }
+    if (compression_text != "none") {
+      compression = ros_bridge::TrialBagWriter::Compression{
+          ros_bridge::parseImageCompression(compression_text, "--compression"), jpeg_quality};
+    }
+    if (jpeg_quality < 1 || jpeg_quality > 100) {
+      throw InputError("--jpeg-quality must be between 1 and 100");
     }
     const auto jts_files = namedValues(jts_args, "jts");
     const auto mesh_files = namedValues(mesh_args, "mesh");
@@ -176,7 +194,8 @@ int main(int argc, char** argv) {
 
     fs::path output(output_path);
     if (output.has_parent_path()) fs::create_directories(output.parent_path());
-    ros_bridge::TrialBagWriter bag(output_path, views, io::fixedFrameId(view_count), start_stamp_s);
+    ros_bridge::TrialBagWriter bag(output_path, views, io::fixedFrameId(view_count), start_stamp_s,
+                                   compression);
     for (int f = 0; f < frames; ++f) {
       std::vector<cv::Mat> images;
       for (std::size_t v = 0; v < view_count; ++v) {
@@ -236,7 +255,9 @@ int main(int argc, char** argv) {
                 << inputs[v].height << ", "
                 << io::calibrationFormatName(inputs[v].calibration.format) << " calibration";
     }
-    std::cout << "), " << rate_hz << " Hz\n  bag:           " << output_path << "\n";
+    std::cout << "), " << rate_hz << " Hz\n  bag:           " << output_path;
+    if (compression) std::cout << " (" << compression_text << " compressed)";
+    std::cout << "\n";
     if (!reference_path.empty()) std::cout << "  reference CSV: " << reference_path << "\n";
     if (!trial_yaml_path.empty()) {
       std::cout << "  trial YAML:    " << trial_yaml_path << "\n";

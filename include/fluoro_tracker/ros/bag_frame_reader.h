@@ -23,16 +23,20 @@ struct BagFrame {
   std::vector<geometry::XrayCamera> cameras;
 };
 
-// Reads the images of one or more views from a bag in one pass, in bag order. Each image
-// topic's camera_info is its sibling ".../camera_info" (the latest one received before the
-// image). With several views, /tf_static in the bag places each optical frame in the fixed
-// frame, and images of the views are grouped by identical header stamps.
+// Reads the images of one or more views from a bag in one pass, in bag order. An image topic
+// carries sensor_msgs/Image or sensor_msgs/CompressedImage (image_transport's compressed
+// transport, e.g. ".../image_raw/compressed": PNG or JPEG, decoded with OpenCV). Each image
+// topic's camera_info is its sibling ".../camera_info" (of ".../image_raw" for a compressed
+// ".../image_raw/compressed"; the latest one received before the image). With several views,
+// /tf_static in the bag places each optical frame in the fixed frame, and images of the views
+// are grouped by identical header stamps.
 class BagFrameReader {
  public:
   using FrameCallback = std::function<void(const BagFrame&)>;
   using SkipCallback = std::function<void(int index, double stamp_s, const std::string& reason)>;
 
-  // `image_topics` empty: every sensor_msgs/Image topic in the bag. `fixed_frame` empty: the
+  // `image_topics` empty: every sensor_msgs/Image topic in the bag, and every
+  // sensor_msgs/CompressedImage topic whose raw stream is not in it. `fixed_frame` empty: the
   // first view's optical frame. Throws InputError for a missing or unreadable bag, no image
   // topics, or an image topic whose camera_info topic is absent from the bag.
   BagFrameReader(const std::string& bag_path, std::vector<std::string> image_topics,
@@ -46,8 +50,8 @@ class BagFrameReader {
   std::size_t expectedFrames() const { return expected_frames_; }
 
   // Calls `consume` for each complete frame and `skipped` for each frame that cannot be used
-  // (wrong encoding, no camera_info yet, a view not tied to the fixed frame, a view missing at
-  // that stamp), with the reason.
+  // (wrong encoding, compressed data that does not decode, no camera_info yet, a view not tied to
+  // the fixed frame, a view missing at that stamp), with the reason.
   void read(const FrameCallback& consume, const SkipCallback& skipped);
 
  private:

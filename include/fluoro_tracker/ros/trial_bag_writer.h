@@ -1,6 +1,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -8,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "fluoro_tracker/io/fluoro_view.h"
+#include "fluoro_tracker/ros/conversions.h"
 #include "fluoro_tracker/sim/trial_simulator.h"
 
 namespace fluoro_tracker {
@@ -17,17 +19,26 @@ namespace ros_bridge {
 // public contract: for one view /fluoro/image_raw and /fluoro/camera_info (frame
 // fluoro_optical); for N views /fluoroK/image_raw and /fluoroK/camera_info (frames
 // fluoroK_optical) plus latched /tf_static tying each optical frame to the fixed frame.
-// Message and bag times are the image stamps.
+// Message and bag times are the image stamps. Optionally the images are stored as
+// image_transport's compressed transport does (sensor_msgs/CompressedImage on
+// .../image_raw/compressed): PNG keeps every grey value in a third to a half of the space.
 class TrialBagWriter {
  public:
-  // Opens (truncates) the bag and, for several views, writes /tf_static. Throws InputError if
-  // the file cannot be created.
+  struct Compression {
+    ImageCompression format = ImageCompression::kPng;
+    int jpeg_quality = 95;
+  };
+
+  // Opens (truncates) the bag and, for several views, writes /tf_static. `compression` unset:
+  // raw sensor_msgs/Image. Throws InputError if the file cannot be created.
   TrialBagWriter(const std::string& path, const std::vector<io::FluoroView>& views,
-                 const std::string& fixed_frame, double first_stamp_s);
+                 const std::string& fixed_frame, double first_stamp_s,
+                 std::optional<Compression> compression = std::nullopt);
   ~TrialBagWriter();
 
-  static std::string imageTopic(const io::FluoroView& view) {
-    return "/" + view.name + "/image_raw";
+  // The topic this writer puts a view's images on.
+  std::string imageTopic(const io::FluoroView& view) const {
+    return "/" + view.name + "/image_raw" + (compression_ ? "/compressed" : "");
   }
   static std::string cameraInfoTopic(const io::FluoroView& view) {
     return "/" + view.name + "/camera_info";
@@ -42,6 +53,7 @@ class TrialBagWriter {
  private:
   rosbag::Bag bag_;
   std::vector<io::FluoroView> views_;
+  std::optional<Compression> compression_;
   std::uint32_t sequence_ = 0;
 };
 

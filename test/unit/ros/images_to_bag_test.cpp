@@ -142,24 +142,30 @@ TEST(ImagesToBag, RegistersTheRealKneelFramesFromTheLabsAutomaticGuesses) {
   EXPECT_NE(kinematics.find(",knee,107."), std::string::npos) << kinematics;
 }
 
+// Raw, and as image_transport's compressed transport stores PNG (lossless): the same frames.
 TEST(ImagesToBag, BagHoldsEachFrameWithItsCameraAndStamp) {
-  TempDir out;
-  std::string output;
-  ASSERT_EQ(runImagesToBag("--images " + kKneel + " --calibration " + kKneel +
-                               "/calibration.txt --output " + out.file("kneel.bag") +
-                               " --rate-hz 7.5 --start-stamp-s 20",
-                           &output),
-            0)
-      << output;
-  const auto frames = readFrames(out.file("kneel.bag"), "");
-  ASSERT_EQ(frames.size(), 3u);
-  EXPECT_EQ(frames[0].cameras[0].frameId(), "fluoro_optical");
-  const cv::Mat file = cv::imread(kKneel + "/AT_K1_V1_0170.tif", cv::IMREAD_UNCHANGED);
-  EXPECT_EQ(cv::norm(frames[1].images[0], file, cv::NORM_INF), 0.0);
-  EXPECT_NEAR(frames[1].stamp_s, 20.0 + 1.0 / 7.5, 1e-6);
-  // JointTrack's projection: f = 1198 mm / 0.373 mm, principal point at the image centre.
-  EXPECT_NEAR(frames[0].cameras[0].fx(), 1198.0 / 0.373, 1e-6);
-  EXPECT_NEAR(frames[0].cameras[0].cx(), 512.0, 1e-9);
+  for (const std::string compression : {"none", "png"}) {
+    TempDir out;
+    std::string output;
+    ASSERT_EQ(runImagesToBag("--images " + kKneel + " --calibration " + kKneel +
+                                 "/calibration.txt --output " + out.file("kneel.bag") +
+                                 " --rate-hz 7.5 --start-stamp-s 20 --compression " + compression,
+                             &output),
+              0)
+        << output;
+    const auto frames = readFrames(out.file("kneel.bag"), "");
+    ASSERT_EQ(frames.size(), 3u) << compression;
+    EXPECT_EQ(frames[0].cameras[0].frameId(), "fluoro_optical");
+    const cv::Mat file = cv::imread(kKneel + "/AT_K1_V1_0170.tif", cv::IMREAD_UNCHANGED);
+    EXPECT_EQ(cv::norm(frames[1].images[0], file, cv::NORM_INF), 0.0) << compression;
+    EXPECT_NEAR(frames[1].stamp_s, 20.0 + 1.0 / 7.5, 1e-6);
+    // JointTrack's projection: f = 1198 mm / 0.373 mm, principal point at the image centre.
+    EXPECT_NEAR(frames[0].cameras[0].fx(), 1198.0 / 0.373, 1e-6);
+    EXPECT_NEAR(frames[0].cameras[0].cx(), 512.0, 1e-9);
+    ros_bridge::BagFrameReader reader(out.file("kneel.bag"), {}, "");
+    EXPECT_EQ(reader.imageTopics()[0],
+              compression == "none" ? "/fluoro/image_raw" : "/fluoro/image_raw/compressed");
+  }
 }
 
 TEST(ImagesToBag, WritesRealBiplaneFramesWithTheirMayaCamCalibrations) {
@@ -228,4 +234,15 @@ TEST(ImagesToBag, BadInputNamesTheProblem) {
             1);
   EXPECT_NE(output.find("has no extrinsics"), std::string::npos) << output;
   EXPECT_FALSE(std::filesystem::exists(out.file("e.bag")));
+  EXPECT_EQ(runImagesToBag("--images " + kKneel + calibration + " --output " + out.file("f.bag") +
+                               " --compression zip",
+                           &output),
+            1);
+  EXPECT_NE(output.find("--compression 'zip' is not none, png or jpeg"), std::string::npos)
+      << output;
+  EXPECT_EQ(runImagesToBag("--images " + kKneel + calibration + " --output " + out.file("g.bag") +
+                               " --compression jpeg --jpeg-quality 0",
+                           &output),
+            1);
+  EXPECT_NE(output.find("--jpeg-quality must be between 1 and 100"), std::string::npos) << output;
 }

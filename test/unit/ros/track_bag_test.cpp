@@ -16,6 +16,7 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -28,7 +29,9 @@ namespace {
 struct Trial {
   TempDir dir;
   std::vector<io::PoseRecord> truth;
-  explicit Trial(int views, int frames = 8) {
+  explicit Trial(
+      int views, int frames = 8,
+      std::optional<ros_bridge::TrialBagWriter::Compression> compression = std::nullopt) {
     sim::TrialSimulatorSettings s;
     s.views = views;
     s.motion.frames = frames;
@@ -40,7 +43,7 @@ struct Trial {
     simulator.writeModels(dir.file("models"));
     io::saveTrialConfig(dir.file("trial.yaml"), simulator.trialConfig(dir.file("models")));
     ros_bridge::TrialBagWriter writer(dir.file("trial.bag"), simulator.views(),
-                                      simulator.fixedFrame(), s.start_stamp_s);
+                                      simulator.fixedFrame(), s.start_stamp_s, compression);
     std::mt19937_64 rng(1);
     for (int i = 0; i < frames; ++i) {
       const auto frame = simulator.render(i, &rng);
@@ -325,4 +328,84 @@ TEST(BagFrameReader, WrongEncodingSkipsTheFrameWithItsReasonAndKeepsTheRest) {
   EXPECT_EQ(used, (std::vector<int>{0, 2}));
   ASSERT_EQ(reasons.size(), 1u);
   EXPECT_NE(reasons[0].find("encoding '32FC1'"), std::string::npos) << reasons[0];
+}
+
+// A bag recorded through image_transport's compressed transport (PNG: lossless) tracks exactly
+// as the same frames stored raw.
+TEST(TrackBag, TracksAPngCompressedBagExactlyAsItsRawTwin) {
+  Trial raw(1, 4);
+  Trial png(1, 4, ros_bridge::TrialBagWriter::Compression{});
+  std::string output;
+  for (const Trial* trial : {&raw, &png}) {
+    ASSERT_EQ(runTrackBag("--config " + trial->dir.file("trial.yaml") + " --bag " +
+                              trial->dir.file("trial.bag") + " --poses-csv " +
+                              trial->dir.file("poses.csv"),
+                          &output),
+              0)
+        << output;
+    EXPECT_NE(output.find("4 frame(s), 4 tracked, 0 skipped"), std::string::npos) << output;
+  }
+  const auto expected = io::readPosesCsv(raw.dir.file("poses.csv"));
+  const auto poses = io::readPosesCsv(png.dir.file("poses.csv"));
+  ASSERT_EQ(poses.size(), 8u);
+  ASSERT_EQ(poses.size(), expected.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    EXPECT_EQ(poses[i].bone, expected[i].bone);
+    EXPECT_EQ(poses[i].status, expected[i].status);
+    EXPECT_TRUE(poses[i].pose.isApprox(expected[i].pose, 1e-12))
+        << poses[i].bone << " frame " << poses[i].frame;
+  }
+}
+
+TEST(BagFrameReader, ReadsEachStreamOnceAndSkipsACompressedFrameThatDoesNotDecode) {
+  TempDir dir;
+  {
+    rosbag::Bag bag(dir.file("both.bag"), rosbag::bagmode::Write);
+    rosbag::Bag only(dir.file("compressed_only.bag"), rosbag::bagmode::Write);
+    geometry::XrayCamera camera(6, 4, 100.0, 100.0, 2.5, 1.5, "fluoro_optical");
+    for (int i = 0; i < 3; ++i) {
+      const ros::Time stamp(1.0 + i);
+      const sensor_msgs::CameraInfo info = ros_bridge::toCameraInfo(camera, stamp);
+      const cv::Mat pixels(4, 6, CV_8UC1, cv::Scalar(10 * (i + 1)));
+      sensor_msgs::CompressedImage compressed = ros_bridge::toCompressedImageMessage(
+          pixels, info.header, ros_bridge::ImageCompression::kPng);
+      if (i == 1) compressed.data.resize(compressed.data.size() / 2);  // cut short
+      for (rosbag::Bag* b : {&bag, &only}) {
+        b->write("/fluoro/camera_info", stamp, info);
+        b->write("/fluoro/image_raw/compressed", stamp, compressed);
+      }
+      bag.write("/fluoro/image_raw", stamp, ros_bridge::toImageMessage(pixels, info.header));
+    }
+  }
+  const auto read = [](ros_bridge::BagFrameReader& reader, std::vector<int>* used,
+                       std::vector<std::string>* reasons) {
+    reader.read(
+        [&](const ros_bridge::BagFrame& f) {
+          used->push_back(f.index);
+          EXPECT_EQ(f.images[0].at<std::uint8_t>(3, 5), 10 * (f.index + 1));
+        },
+        [&](int, double, const std::string& reason) { reasons->push_back(reason); });
+  };
+  // Raw and compressed copies of one stream: the raw one, once.
+  ros_bridge::BagFrameReader both(dir.file("both.bag"), {}, "");
+  EXPECT_EQ(both.imageTopics(), (std::vector<std::string>{"/fluoro/image_raw"}));
+  std::vector<int> used;
+  std::vector<std::string> reasons;
+  read(both, &used, &reasons);
+  EXPECT_EQ(used, (std::vector<int>{0, 1, 2}));
+  EXPECT_TRUE(reasons.empty());
+  // Compressed only (or asked for): its camera_info is the raw stream's sibling; the frame that
+  // does not decode is skipped with the reason, the others are used.
+  for (const auto& [bag, topics] : std::vector<std::pair<std::string, std::vector<std::string>>>{
+           {dir.file("compressed_only.bag"), {}},
+           {dir.file("both.bag"), {"/fluoro/image_raw/compressed"}}}) {
+    ros_bridge::BagFrameReader reader(bag, topics, "");
+    EXPECT_EQ(reader.imageTopics(), (std::vector<std::string>{"/fluoro/image_raw/compressed"}));
+    used.clear();
+    reasons.clear();
+    read(reader, &used, &reasons);
+    EXPECT_EQ(used, (std::vector<int>{0, 2})) << bag;
+    ASSERT_EQ(reasons.size(), 1u) << bag;
+    EXPECT_NE(reasons[0].find("could not be decoded"), std::string::npos) << reasons[0];
+  }
 }

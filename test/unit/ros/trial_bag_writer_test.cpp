@@ -2,10 +2,14 @@
 
 #include <rosbag/view.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <tf2_msgs/TFMessage.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "../test_support.h"
+#include "fluoro_tracker/ros/bag_frame_reader.h"
 #include "fluoro_tracker/ros/conversions.h"
 
 using namespace fluoro_tracker;
@@ -23,11 +27,27 @@ sim::TrialSimulatorSettings tinyTrial(int views) {
   return s;
 }
 
-void writeTrial(const sim::TrialSimulator& simulator, const std::string& path) {
+void writeTrial(const sim::TrialSimulator& simulator, const std::string& path,
+                std::optional<ros_bridge::TrialBagWriter::Compression> compression = std::nullopt) {
   ros_bridge::TrialBagWriter writer(path, simulator.views(), simulator.fixedFrame(),
-                                    simulator.settings().start_stamp_s);
+                                    simulator.settings().start_stamp_s, compression);
   std::mt19937_64 rng(1);
   for (int i = 0; i < simulator.frameCount(); ++i) writer.write(simulator.render(i, &rng));
+}
+
+// Every frame of a bag as track_bag reads it (a skipped frame fails the test).
+std::vector<ros_bridge::BagFrame> readFrames(const std::string& path) {
+  ros_bridge::BagFrameReader reader(path, {}, "");
+  std::vector<ros_bridge::BagFrame> frames;
+  reader.read([&](const ros_bridge::BagFrame& f) { frames.push_back(f); },
+              [](int index, double, const std::string& reason) {
+                ADD_FAILURE() << "frame " << index << " skipped: " << reason;
+              });
+  return frames;
+}
+
+double maxAbsDifference(const cv::Mat& a, const cv::Mat& b) {
+  return cv::norm(a, b, cv::NORM_INF);
 }
 
 }  // namespace
@@ -116,4 +136,92 @@ TEST(RosConversions, BadMessagesNameTheProblem) {
   EXPECT_THROW_WITH(ros_bridge::fromPoseMessage(pose), "non-finite");
   EXPECT_THROW_WITH(ros_bridge::toImageMessage(cv::Mat(2, 2, CV_32F), std_msgs::Header()),
                     "8- or 16-bit");
+}
+
+// Bags recorded through image_transport's compressed transport hold
+// sensor_msgs/CompressedImage on .../image_raw/compressed; PNG is lossless at 8 and 16 bits.
+TEST(TrialBagWriter, PngCompressedFramesReadBackExactlyAsTheRawOnes) {
+  TempDir dir;
+  for (const int bits : {8, 16}) {
+    sim::TrialSimulatorSettings settings = tinyTrial(bits == 8 ? 1 : 2);
+    settings.detector.bit_depth = bits;
+    const sim::TrialSimulator simulator(settings);
+    const std::string raw = dir.file("raw" + std::to_string(bits) + ".bag");
+    const std::string png = dir.file("png" + std::to_string(bits) + ".bag");
+    writeTrial(simulator, raw);
+    writeTrial(simulator, png, ros_bridge::TrialBagWriter::Compression{});
+
+    {
+      rosbag::Bag bag(png, rosbag::bagmode::Read);
+      const std::string view = bits == 8 ? "fluoro" : "fluoro1";
+      EXPECT_EQ(rosbag::View(bag, rosbag::TopicQuery("/" + view + "/image_raw")).size(), 0u);
+      rosbag::View images(bag, rosbag::TopicQuery("/" + view + "/image_raw/compressed"));
+      ASSERT_EQ(images.size(), 3u);
+      const auto first = images.begin()->instantiate<sensor_msgs::CompressedImage>();
+      ASSERT_TRUE(first);
+      const std::string encoding = bits == 8 ? "mono8" : "mono16";
+      EXPECT_EQ(first->format, encoding + "; png compressed " + encoding);
+    }
+    const auto expected = readFrames(raw);
+    const auto frames = readFrames(png);
+    ASSERT_EQ(frames.size(), 3u);
+    ASSERT_EQ(expected.size(), 3u);
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+      EXPECT_EQ(frames[f].stamp_s, expected[f].stamp_s);
+      ASSERT_EQ(frames[f].images.size(), expected[f].images.size());
+      for (std::size_t v = 0; v < frames[f].images.size(); ++v) {
+        EXPECT_EQ(frames[f].images[v].type(), bits == 8 ? CV_8UC1 : CV_16UC1);
+        EXPECT_EQ(maxAbsDifference(frames[f].images[v], expected[f].images[v]), 0.0)
+            << bits << "-bit frame " << f << " view " << v;
+        EXPECT_TRUE(frames[f].cameras[v].worldFromCamera().isApprox(
+            expected[f].cameras[v].worldFromCamera(), 1e-12));
+      }
+    }
+  }
+}
+
+TEST(TrialBagWriter, JpegFramesAreCloseAndSixteenBitOnesAreRefused) {
+  TempDir dir;
+  const sim::TrialSimulator simulator(tinyTrial(1));
+  writeTrial(simulator, dir.file("raw.bag"));
+  writeTrial(simulator, dir.file("jpeg.bag"),
+             ros_bridge::TrialBagWriter::Compression{ros_bridge::ImageCompression::kJpeg, 95});
+  const auto expected = readFrames(dir.file("raw.bag"));
+  const auto frames = readFrames(dir.file("jpeg.bag"));
+  ASSERT_EQ(frames.size(), expected.size());
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    const double largest = maxAbsDifference(frames[f].images[0], expected[f].images[0]);
+    EXPECT_GT(largest, 0.0) << "JPEG is lossy";
+    EXPECT_LT(largest, 32.0) << "frame " << f;
+    EXPECT_LT(cv::norm(frames[f].images[0], expected[f].images[0], cv::NORM_L1) /
+                  static_cast<double>(expected[f].images[0].total()),
+              2.0);
+  }
+  EXPECT_THROW_WITH(
+      ros_bridge::toCompressedImageMessage(cv::Mat(4, 4, CV_16UC1, cv::Scalar(9)),
+                                           std_msgs::Header(), ros_bridge::ImageCompression::kJpeg),
+      "as PNG");
+  EXPECT_THROW_WITH(ros_bridge::parseImageCompression("zip", "--compression"),
+                    "--compression 'zip'");
+}
+
+TEST(RosConversions, CompressedImagesThatAreNoFluoroscopyFrameNameTheProblem) {
+  sensor_msgs::CompressedImage message;
+  message.header.frame_id = "fluoro_optical";
+  message.format = "mono8; png compressed mono8";
+  EXPECT_THROW_WITH(ros_bridge::fromCompressedImageMessage(message), "has no data");
+  message.data = {1, 2, 3, 4, 5, 6, 7, 8};
+  EXPECT_THROW_WITH(ros_bridge::fromCompressedImageMessage(message),
+                    "format 'mono8; png compressed mono8') could not be decoded");
+  message.format = "16UC1; compressedDepth png";
+  EXPECT_THROW_WITH(ros_bridge::fromCompressedImageMessage(message), "compressedDepth");
+  // Colour (as a bgr8 stream would be compressed) comes back grey.
+  cv::Mat colour(3, 5, CV_8UC3, cv::Scalar(40, 80, 120));
+  message.format = "bgr8; png compressed bgr8";
+  ASSERT_TRUE(cv::imencode(".png", colour, message.data));
+  const cv::Mat grey = ros_bridge::fromCompressedImageMessage(message);
+  ASSERT_EQ(grey.type(), CV_8UC1);
+  cv::Mat expected;
+  cv::cvtColor(colour, expected, cv::COLOR_BGR2GRAY);
+  EXPECT_EQ(cv::norm(grey, expected, cv::NORM_INF), 0.0);
 }
