@@ -21,6 +21,18 @@ QualitySettings whereTheOutlineLies(QualitySettings settings) {
 
 }  // namespace
 
+std::string describeImplausibleJumps(const TrackedFrame& frame,
+                                     const std::vector<BoneModel>& bones) {
+  std::string names;
+  for (std::size_t b = 0; b < frame.implausible_jump.size() && b < bones.size(); ++b) {
+    if (frame.implausible_jump[b]) names += (names.empty() ? "" : ", ") + bones[b].name;
+  }
+  if (names.empty()) return names;
+  return "the search found " + names +
+         " farther from the last good pose than a bone moves in the frames since (a frame "
+         "showing another knee, or this one mirrored?): kept lost there";
+}
+
 Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometry::Pose> initial,
                  std::shared_ptr<const PoseSearch> search)
     : registrar_(std::move(registrar)),
@@ -112,6 +124,9 @@ void Tracker::reinitialize(const std::vector<std::string>& bones,
   poses_ = updated;
   previous_.clear();
   recovering_ = false;
+  search_requested_ = false;
+  last_ok_.clear();
+  frames_since_ok_.clear();
   poses_registered_ = false;
   previous_trouble_ = 0;
 }
@@ -119,6 +134,7 @@ void Tracker::reinitialize(const std::vector<std::string>& bones,
 void Tracker::requestSearch() {
   if (!search_) throw InputError("tracker: automatic search is not configured");
   recovering_ = true;
+  search_requested_ = true;
 }
 
 TrackedFrame Tracker::searchAndReset(const std::vector<ViewImage>& views) {
@@ -132,8 +148,34 @@ TrackedFrame Tracker::searchAndReset(const std::vector<ViewImage>& views) {
   frame.poses = frame.result.poses;
   frame.solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (search_requested_) {
+    search_requested_ = false;
+  } else {
+    rejectImplausibleJumps(&frame);
+  }
   accept(&frame);
   return frame;
+}
+
+void Tracker::rejectImplausibleJumps(TrackedFrame* frame) const {
+  const RegistrationSettings& settings = registrar_->settings();
+  frame->implausible_jump.assign(frame->poses.size(), false);
+  for (std::size_t b = 0; b < frame->poses.size(); ++b) {
+    // Only against a pose a registration called ok: a user's guess may be centimetres off, and
+    // a suspect pose may be the very jump (a mirrored tray that fits, beside a femur that does
+    // not).
+    if (frame->status[b] == "lost" || b >= last_ok_.size() || !last_ok_[b]) continue;
+    const geometry::Pose& before = *last_ok_[b];
+    const int frames = 1 + frames_since_ok_[b];
+    const double moved_m = (frame->poses[b].translation() - before.translation()).norm();
+    const double turned_rad =
+        geometry::rotationAngleBetween(frame->poses[b].linear(), before.linear());
+    if (moved_m > frames * settings.max_translation_from_start_m ||
+        turned_rad > frames * settings.max_rotation_from_start_rad) {
+      frame->implausible_jump[b] = true;
+      frame->status[b] = "lost";
+    }
+  }
 }
 
 void Tracker::accept(TrackedFrame* frame) {
@@ -159,6 +201,16 @@ void Tracker::accept(TrackedFrame* frame) {
   if (first && any_lost) poses_.clear();  // not found yet: search again next frame
   recovering_ = any_lost && search_ != nullptr;
   poses_registered_ = !poses_.empty();
+  last_ok_.resize(frame->status.size());
+  frames_since_ok_.resize(frame->status.size(), 0);
+  for (std::size_t b = 0; b < frame->status.size(); ++b) {
+    if (frame->status[b] == "ok") {
+      last_ok_[b] = frame->poses[b];
+      frames_since_ok_[b] = 0;
+    } else {
+      ++frames_since_ok_[b];
+    }
+  }
 }
 
 std::vector<bool> Tracker::fitsWorseThanRecently(const RegistrationResult& result,

@@ -295,6 +295,11 @@ void TrackerNode::process(const PendingFrame& frame) {
       return;
     }
   }
+  const std::string jump = registration::describeImplausibleJumps(tracked, registrar_->bones());
+  if (!jump.empty()) {
+    ROS_WARN_THROTTLE(5.0, "tracker_node: frame at %.3f: %s", frame.header.stamp.toSec(),
+                      jump.c_str());
+  }
   const auto& bones = registrar_->bones();
   const auto transforms = boneTransforms(frame.header.stamp, fixed_frame, *registrar_, tracked);
   tf_broadcaster_.sendTransform(transforms);
@@ -534,6 +539,10 @@ bool TrackerNode::onPlayBag(PlayBag::Request& request, PlayBag::Response& respon
             publishProgress(frame.stamp_s, false);
             return;
           }
+          const std::string jump =
+              registration::describeImplausibleJumps(tracked, registrar_->bones());
+          if (!jump.empty())
+            ROS_WARN("tracker_node: play_bag frame %d: %s", frame.index, jump.c_str());
           ++tracked_frames;
           if (result_bag)
             result_bag->addFrame(frame.stamp_s, reader.fixedFrame(), *registrar_, tracked);

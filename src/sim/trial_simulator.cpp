@@ -53,6 +53,14 @@ TrialSimulatorSettings::TrialSimulatorSettings() {
   detector.collimator_radius_fraction = 1.08;
 }
 
+void varyBenchmarkTrial(int trial, std::mt19937_64* rng, TrialSimulatorSettings* settings) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  settings->motion.max_flexion_deg = 60.0 + 60.0 * unit(*rng);
+  settings->view_yaw_deg = -8.0 + 16.0 * unit(*rng);
+  settings->view_roll_deg = -5.0 + 10.0 * unit(*rng);
+  settings->detector.implants_bright = trial % 2 == 1;
+}
+
 void TrialSimulatorSettings::validate() const {
   if (image_width < 16 || image_height < 16)
     throw InputError("simulator: image size must be >= 16");

@@ -436,12 +436,7 @@ void runSimulated(const sim::TrialSimulatorSettings& base, int trials, int frame
     s.views = views;
     s.motion.frames = frames;
     s.seed = seed + trial;
-    // Vary the trials: flexion range, view obliquity, polarity.
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
-    s.motion.max_flexion_deg = 60.0 + 60.0 * unit(rng);
-    s.view_yaw_deg = -8.0 + 16.0 * unit(rng);
-    s.view_roll_deg = -5.0 + 10.0 * unit(rng);
-    s.detector.implants_bright = trial % 2 == 1;
+    sim::varyBenchmarkTrial(trial, &rng, &s);  // flexion range, view obliquity, polarity
     if (ideal_images) {
       s.anatomy = false;
       s.detector.photons_per_pixel = 0.0;

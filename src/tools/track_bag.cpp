@@ -153,6 +153,9 @@ int main(int argc, char** argv) {
           try {
             if (tracker) {
               const registration::TrackedFrame tracked_frame = tracker->track(views);
+              const std::string jump = registration::describeImplausibleJumps(tracked_frame, bones);
+              if (!jump.empty())
+                std::cerr << "track_bag: frame " << frame.index << ": " << jump << "\n";
               result = tracked_frame.result;
               result.poses = tracked_frame.poses;  // lost bones: their last good pose
               status = tracked_frame.status;

@@ -21,7 +21,16 @@ struct TrackedFrame {
   RegistrationResult result;
   double solve_seconds = 0.0;
   bool searched = false;  // the poses come from an automatic search (initialisation, recovery)
+  // Per bone (empty unless searched): the search put the bone farther from where it last fitted
+  // well than it can move in the frames since, so it is reported lost at its last good pose
+  // instead (e.g. a frame showing the knee mirrored, or another knee).
+  std::vector<bool> implausible_jump;
 };
+
+// "the search found femur farther from the last good pose than ..." for a frame with
+// TrackedFrame::implausible_jump set for some bone (named from `bones`); empty otherwise. For logs.
+std::string describeImplausibleJumps(const TrackedFrame& frame,
+                                     const std::vector<BoneModel>& bones);
 
 // State across frames (architecture: registration::Tracker): each frame is registered from a
 // prediction from the last two good frames (predictPoses, RegistrationSettings::
@@ -31,10 +40,14 @@ struct TrackedFrame {
 // from it. With a PoseSearch, the tracker also starts without poses (the first frame is searched)
 // and recovers: a frame whose registration loses a bone is searched at once, seeded by the last
 // good poses (so a crude first-frame guess costs no frame); if that finds nothing, each following
-// frame is searched until no bone is lost. Frames started from an earlier frame's registration skip
-// the registrar's mirror check (the motion so far tells the side); frames started from poses the
-// user gave (the first frame, reinitialize) have it as configured.
-// ROS-free: used by track_bag and the tracking node.
+// frame is searched until no bone is lost. A recovery search whose bone lies farther from its pose
+// in the last frame that called it ok than it can move in the frames since (RegistrationSettings::
+// max_translation_from_start_m and max_rotation_from_start_rad per frame, the limits of one
+// frame's registration) leaves that bone lost at its last good pose: a frame that shows a knee, but
+// not this one where it was a moment ago, is not followed. Frames started from an earlier frame's
+// registration skip the registrar's mirror check (the motion so far tells the side); frames started
+// from poses the user gave (the first frame, reinitialize) have it as configured. ROS-free: used by
+// track_bag and the tracking node.
 class Tracker {
  public:
   // `initial`: per bone, its pose at the first frame. Empty: found by `search` on the first
@@ -53,7 +66,7 @@ class Tracker {
   void setSearch(std::shared_ptr<const PoseSearch> search) { search_ = std::move(search); }
   // The next frame is searched (seeded by the last good poses) instead of tracked. Throws
   // InputError without a search.
-  void requestSearch();
+  void requestSearch();  // its result is taken wherever it lies (no implausible_jump test)
 
   // Searches the frame for every bone (seeded by the last good poses) and restarts tracking
   // there. Throws InputError when there is no search, or it finds no pose of some bone (the
@@ -74,6 +87,9 @@ class Tracker {
  private:
   // Takes a registered frame's poses by their status (lost bones keep their last good pose).
   void accept(TrackedFrame* frame);
+  // Marks lost (TrackedFrame::implausible_jump) each bone a recovery search put farther from its
+  // pose in the last frame that called it ok than it can move in the frames since.
+  void rejectImplausibleJumps(TrackedFrame* frame) const;
   // Per bone: its inlier fraction lies more than RegistrationSettings::tracking_retry_inlier_drop
   // below the median of its recent frames (single view only; all false with more views).
   std::vector<bool> fitsWorseThanRecently(const RegistrationResult& result,
@@ -97,7 +113,11 @@ class Tracker {
   // margin (RegistrationSettings::tracking_inner_edge_margin_px), as they start near too.
   std::shared_ptr<const Registrar> retrying_registrar_;
   std::shared_ptr<const PoseSearch> search_;
-  bool recovering_ = false;               // a bone was lost: search the next frames
+  bool recovering_ = false;        // a bone was lost: search the next frames
+  bool search_requested_ = false;  // requestSearch(): take the next search as found
+  // Per bone: its pose in the last frame a registration called it ok, and the frames since.
+  std::vector<std::optional<geometry::Pose>> last_ok_;
+  std::vector<int> frames_since_ok_;
   std::vector<geometry::Pose> poses_;     // last good pose per bone
   std::vector<geometry::Pose> previous_;  // the good poses one frame earlier (empty: none)
   bool poses_registered_ = false;         // poses_ come from a registration, not the user

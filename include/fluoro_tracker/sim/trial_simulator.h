@@ -76,6 +76,11 @@ struct TrialSimulatorSettings {
 // defaults. Throws InputError naming the file and key.
 TrialSimulatorSettings loadSimulatorSettings(const std::string& path);
 
+// The benchmarks' spread of trials: trial `trial`'s deepest flexion (60-120 deg), its view's yaw
+// (+-8 deg) and roll (+-5 deg) drawn from `rng` in that order, and implants shown bright in odd
+// trials. The rest of `settings` is left as it is.
+void varyBenchmarkTrial(int trial, std::mt19937_64* rng, TrialSimulatorSettings* settings);
+
 // "fluoro" (single plane) or "fluoro1", "fluoro2"; worldFromCamera() is the pose in the
 // trial's fixed frame.
 using SimulatedView = io::FluoroView;
