@@ -160,7 +160,7 @@ int main(int argc, char** argv) {
       "max-frames-back", po::value(&max_frames_back)->default_value(max_frames_back),
       "the bar: back within this many frames")(
       "verbose", po::bool_switch(&verbose),
-      "print every corrupted frame and the frames until back");
+      "print every frame: statuses, within the criterion or off, searched, time");
   po::variables_map vm;
   if (const auto exit_code =
           tools::parseCommandLine("recovery_benchmark", options, argc, argv, &vm)) {
@@ -229,11 +229,18 @@ int main(int argc, char** argv) {
         tallies.searched_frames += tracked.searched ? 1 : 0;
         bool within = true;
         std::vector<bool> bone_within(bones);
+        std::ostringstream errors;  // for --verbose: each bone off the criterion
         for (std::size_t b = 0; b < bones; ++b) {
           if (!finite(tracked.poses[b])) ++tallies.non_finite;
-          bone_within[b] = registration::meetsSuccessCriterion(
-              registration::poseError(tracked.poses[b], truth[b], camera_from_fixed));
+          const registration::PoseError error =
+              registration::poseError(tracked.poses[b], truth[b], camera_from_fixed);
+          bone_within[b] = registration::meetsSuccessCriterion(error);
           within = within && bone_within[b];
+          if (!bone_within[b]) {
+            errors << std::fixed << std::setprecision(1) << " (" << loaded.bones[b].name << " "
+                   << error.translation_mm.transpose() << " mm, " << error.rotation_deg.transpose()
+                   << " deg)";
+          }
         }
         if (corrupted) {
           Event& e = *open;
@@ -261,9 +268,10 @@ int main(int argc, char** argv) {
           ++tallies.clean_frames;
           tallies.clean_within += within ? 1 : 0;
         }
-        if (verbose && (corrupted || (open != nullptr))) {
+        if (verbose) {
           std::cout << "  trial " << trial << " frame " << f << (corrupted ? " (corrupted)" : "")
-                    << ": " << joined(tracked.status) << (within ? ", within" : ", off")
+                    << ": " << joined(tracked.status)
+                    << (within ? ", within" : ", off" + errors.str())
                     << (tracked.searched ? ", searched" : "") << ", " << std::fixed
                     << std::setprecision(0) << tallies.frame_ms.back() << " ms\n";
         }
