@@ -368,17 +368,18 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   }
   const YamlSection mirror = section.child("mirror_check");
   mirror.allowOnly({"enabled", "cost_tolerance", "min_difference_deg", "max_difference_deg",
-                    "min_neutral_gain", "tracking_turn_max_difference_deg", "outer_iterations",
-                    "solver_iterations", "continued_outer_iterations", "turn_reflection",
-                    "mirror_reflection", "tilt_reflection", "abandon_cost_ratio",
-                    "abandon_deviation_excess", "start_deviation_excess",
-                    "neutral_internal_rotation_per_flexion"});
+                    "min_neutral_gain", "tracking_turn_max_difference_deg",
+                    "tracking_tilt_reflection", "outer_iterations", "solver_iterations",
+                    "continued_outer_iterations", "turn_reflection", "mirror_reflection",
+                    "tilt_reflection", "abandon_cost_ratio", "abandon_deviation_excess",
+                    "start_deviation_excess", "neutral_internal_rotation_per_flexion"});
   mirror.read("enabled", &r.mirror_check.enabled);
   mirror.read("cost_tolerance", &r.mirror_check.cost_tolerance);
   mirror.read("min_difference_deg", &r.mirror_check.min_difference_deg);
   mirror.read("max_difference_deg", &r.mirror_check.max_difference_deg);
   mirror.read("min_neutral_gain", &r.mirror_check.min_neutral_gain);
   mirror.read("tracking_turn_max_difference_deg", &r.mirror_check.tracking_turn_max_difference_deg);
+  mirror.read("tracking_tilt_reflection", &r.mirror_check.tracking_tilt_reflection);
   mirror.read("outer_iterations", &r.mirror_check.outer_iterations);
   mirror.read("solver_iterations", &r.mirror_check.solver_iterations);
   mirror.read("continued_outer_iterations", &r.mirror_check.continued_outer_iterations);

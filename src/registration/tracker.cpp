@@ -77,14 +77,16 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
     continuing.depth_retry.enabled = false;
     continuing.reflection_retry.enabled = false;
     continuing.rotation_retry.enabled = false;
-    // Only the turn reflection, and only near the view where the branches meet (see
+    // Only the turn (and tilt) reflection, and only near the view where the branches meet (see
     // MirrorCheckSettings::tracking_turn_max_difference_deg).
     const MirrorCheckSettings& mirror = settings.mirror_check;
+    continuing.mirror_check.tilt_reflection =
+        mirror.tilt_reflection && mirror.tracking_tilt_reflection;
+    continuing.mirror_check.turn_reflection = mirror.turn_reflection;
     continuing.mirror_check.enabled =
-        mirror.enabled && mirror.turn_reflection &&
+        mirror.enabled && (mirror.turn_reflection || continuing.mirror_check.tilt_reflection) &&
         mirror.tracking_turn_max_difference_deg > mirror.min_difference_deg;
     continuing.mirror_check.mirror_reflection = false;
-    continuing.mirror_check.tilt_reflection = false;
     // Where the branches meet, the two lie within a few degrees and are nearly equally neutral
     // by construction: the check keeps the tracker on the nearer-neutral one without a margin.
     continuing.mirror_check.min_neutral_gain = 0.0;

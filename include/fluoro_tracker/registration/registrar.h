@@ -96,7 +96,8 @@ struct MirrorCheckSettings {
   // with contact alone.
   bool tilt_reflection = true;
   // Frames the tracker continues from an earlier result (registration::Tracker) try only the
-  // turn reflection, and only when it lies within this of the solution (0: never). The tracker
+  // turn reflection (and the tilt reflection, below), and only when it lies within this of the
+  // solution (0: never). The tracker
   // follows the tray through the view where its turn about the stem has no sign; there the two
   // branches meet, and the check keeps it on the one nearer neutral; away from that view the
   // previous frame decides. Measured with track_bag on three heavy-scatter trials
@@ -106,6 +107,12 @@ struct MirrorCheckSettings {
   // for a long stretch, track_bag ran at 54 frames/s without it, 54 at 3 deg and 42 at 6 deg
   // (the live node then dropped 23 of 200 frames at 30 Hz).
   double tracking_turn_max_difference_deg = 3.0;
+  // ... and the tilt reflection too, within the same distance: a tray's plateau passing
+  // edge-on, where its varus-valgus tilt has no sign, left the tracker on the mirror branch
+  // (benchmark trials tracked 2-4 deg off in tilt for up to 22 frames, status ok; over 40
+  // varied trials 2265 -> 2341 of 2360 frames within the criteria; README "The tilt
+  // reflection while tracking").
+  bool tracking_tilt_reflection = true;
   // A candidate's solve stops after an outer iteration (not its last) that leaves its cost above
   // abandon_cost_ratio x the solution's, or its joint farther from neutral than the deviation
   // it must beat by more than abandon_deviation_excess (units of the ligament bounds): such a

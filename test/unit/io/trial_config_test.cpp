@@ -370,7 +370,8 @@ registration:
   mirror_check: {enabled: false, cost_tolerance: 0.2, outer_iterations: 3, solver_iterations: 5,
                  continued_outer_iterations: 0,
                  turn_reflection: false, mirror_reflection: false, tilt_reflection: false, max_difference_deg: 30,
-                 tracking_turn_max_difference_deg: 4, min_neutral_gain: 0.25,
+                 tracking_turn_max_difference_deg: 4, tracking_tilt_reflection: false,
+                 min_neutral_gain: 0.25,
                  abandon_cost_ratio: 3.5, abandon_deviation_excess: 0.5,
                  start_deviation_excess: 2.5, neutral_internal_rotation_per_flexion: 0.1}
   reflection_retry: {enabled: false, below_inlier_fraction: 0.7, min_inlier_gain: 0.1,
@@ -397,6 +398,7 @@ registration:
   EXPECT_FALSE(c.registration.mirror_check.tilt_reflection);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.max_difference_deg, 30.0);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.tracking_turn_max_difference_deg, 4.0);
+  EXPECT_FALSE(c.registration.mirror_check.tracking_tilt_reflection);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.min_neutral_gain, 0.25);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.abandon_cost_ratio, 3.5);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.abandon_deviation_excess, 0.5);
@@ -584,6 +586,8 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.registration.mirror_check.mirror_reflection, d.mirror_check.mirror_reflection);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.tracking_turn_max_difference_deg,
                    d.mirror_check.tracking_turn_max_difference_deg);
+  EXPECT_EQ(c.registration.mirror_check.tracking_tilt_reflection,
+            d.mirror_check.tracking_tilt_reflection);
   EXPECT_DOUBLE_EQ(c.registration.mirror_check.neutral_internal_rotation_per_flexion,
                    d.mirror_check.neutral_internal_rotation_per_flexion);
   EXPECT_EQ(c.registration.reflection_retry.enabled, d.reflection_retry.enabled);
