@@ -662,6 +662,14 @@ std::string trackingPredictionName(RegistrationSettings::TrackingPrediction pred
              : "constant_velocity";
 }
 
+bool withinMotionLimits(const geometry::Pose& from, const geometry::Pose& to,
+                        const RegistrationSettings& settings, int frames) {
+  return (to.translation() - from.translation()).norm() <=
+             frames * settings.max_translation_from_start_m &&
+         geometry::rotationAngleBetween(to.linear(), from.linear()) <=
+             frames * settings.max_rotation_from_start_rad;
+}
+
 RegistrationSettings::EdgeOffsetModel edgeOffsetModelFromName(const std::string& name) {
   using Model = RegistrationSettings::EdgeOffsetModel;
   return settingFromName(name, {Model::kNone, Model::kUniform}, &edgeOffsetModelName,
@@ -1510,12 +1518,8 @@ Registrar::Solution Registrar::solveUnfinished(const std::vector<ViewImage>& vie
                                      centres[b], inc.data());
           }
           const geometry::Pose moved = applyIncrement(result.poses[b], centres[b], inc.data());
-          const bool plausible =
-              (moved.translation() - initial_poses[b].translation()).norm() <=
-                  settings_.max_translation_from_start_m &&
-              geometry::rotationAngleBetween(moved.linear(), initial_poses[b].linear()) <=
-                  settings_.max_rotation_from_start_rad;
-          if (!plausible || !isViewable(bones_[b], moved, views)) {
+          if (!withinMotionLimits(initial_poses[b], moved, settings_) ||
+              !isViewable(bones_[b], moved, views)) {
             result.diverged[b] = true;
             continue;
           }

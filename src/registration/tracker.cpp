@@ -82,7 +82,6 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
     const MirrorCheckSettings& mirror = settings.mirror_check;
     continuing.mirror_check.tilt_reflection =
         mirror.tilt_reflection && mirror.tracking_tilt_reflection;
-    continuing.mirror_check.turn_reflection = mirror.turn_reflection;
     continuing.mirror_check.enabled =
         mirror.enabled && (mirror.turn_reflection || continuing.mirror_check.tilt_reflection) &&
         mirror.tracking_turn_max_difference_deg > mirror.min_difference_deg;
@@ -167,13 +166,7 @@ void Tracker::rejectImplausibleJumps(TrackedFrame* frame) const {
     // a suspect pose may be the very jump (a mirrored tray that fits, beside a femur that does
     // not).
     if (frame->status[b] == "lost" || b >= last_ok_.size() || !last_ok_[b]) continue;
-    const geometry::Pose& before = *last_ok_[b];
-    const int frames = 1 + frames_since_ok_[b];
-    const double moved_m = (frame->poses[b].translation() - before.translation()).norm();
-    const double turned_rad =
-        geometry::rotationAngleBetween(frame->poses[b].linear(), before.linear());
-    if (moved_m > frames * settings.max_translation_from_start_m ||
-        turned_rad > frames * settings.max_rotation_from_start_rad) {
+    if (!withinMotionLimits(*last_ok_[b], frame->poses[b], settings, 1 + frames_since_ok_[b])) {
       frame->implausible_jump[b] = true;
       frame->status[b] = "lost";
     }

@@ -445,6 +445,11 @@ std::string edgeOffsetModelName(RegistrationSettings::EdgeOffsetModel model);
 RegistrationSettings::TrackingPrediction trackingPredictionFromName(const std::string& name);
 std::string trackingPredictionName(RegistrationSettings::TrackingPrediction prediction);
 
+// Whether a bone could have gone from `from` to `to` in `frames` frames: within the settings'
+// per-frame limits (max_translation_from_start_m, max_rotation_from_start_rad) times `frames`.
+bool withinMotionLimits(const geometry::Pose& from, const geometry::Pose& to,
+                        const RegistrationSettings& settings, int frames = 1);
+
 // A frame as the registrar sees it: one image per view, each with its camera (whose
 // worldFromCamera() is the view's pose in the fixed frame).
 struct ViewImage {
