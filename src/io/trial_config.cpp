@@ -399,10 +399,12 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   reflection_retry.read("min_inlier_gain", &r.reflection_retry.min_inlier_gain);
   reflection_retry.read("before_mirror_check", &r.reflection_retry.before_mirror_check);
   const YamlSection rotation_retry = section.child("rotation_retry");
-  rotation_retry.allowOnly({"enabled", "above_contour_spread_px", "step_deg"});
+  rotation_retry.allowOnly(
+      {"enabled", "above_contour_spread_px", "step_deg", "tracking_spread_rise"});
   rotation_retry.read("enabled", &r.rotation_retry.enabled);
   rotation_retry.read("above_contour_spread_px", &r.rotation_retry.above_contour_spread_px);
   rotation_retry.read("step_deg", &r.rotation_retry.step_deg);
+  rotation_retry.read("tracking_spread_rise", &r.rotation_retry.tracking_spread_rise);
   const YamlSection depth_retry = section.child("depth_retry");
   depth_retry.allowOnly({"enabled", "shifts_mm", "light_below_inlier_fraction"});
   depth_retry.read("enabled", &r.depth_retry.enabled);

@@ -790,9 +790,11 @@ void RegistrationSettings::validate() const {
       throw InputError("registration: depth_retry: shifts_mm must be finite and non-zero");
     }
   }
-  if (!(rotation_retry.above_contour_spread_px >= 0.0) || !(rotation_retry.step_deg > 0.0)) {
+  if (!(rotation_retry.above_contour_spread_px >= 0.0) || !(rotation_retry.step_deg > 0.0) ||
+      !(rotation_retry.tracking_spread_rise >= 0.0)) {
     throw InputError(
-        "registration: rotation_retry needs above_contour_spread_px >= 0 and step_deg > 0");
+        "registration: rotation_retry needs above_contour_spread_px >= 0, step_deg > 0 and "
+        "tracking_spread_rise >= 0");
   }
   if (!(depth_retry.light_below_inlier_fraction >= 0.0 &&
         depth_retry.light_below_inlier_fraction <= 1.0)) {
@@ -824,8 +826,10 @@ Registrar::Registrar(std::vector<BoneModel> bones, RegistrationSettings settings
 RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
                                     const std::vector<geometry::Pose>& initial_poses,
                                     const std::vector<bool>& loaded,
-                                    const EdgeOffsetPriors& offset_priors) const {
-  RegistrationResult result = solveWithRetries(views, initial_poses, loaded, offset_priors);
+                                    const EdgeOffsetPriors& offset_priors,
+                                    const std::vector<double>& recent_spreads_px) const {
+  RegistrationResult result =
+      solveWithRetries(views, initial_poses, loaded, offset_priors, recent_spreads_px);
   // The solutions compared on the way carry the sampled contact figures only (finish).
   for (std::size_t j = 0; j < joints_.size() && j < result.joints.size(); ++j) {
     const JointModel& joint = joints_[j];
@@ -840,7 +844,13 @@ RegistrationResult Registrar::solve(const std::vector<ViewImage>& views,
 RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& views,
                                                const std::vector<geometry::Pose>& initial_poses,
                                                const std::vector<bool>& loaded,
-                                               const EdgeOffsetPriors& offset_priors) const {
+                                               const EdgeOffsetPriors& offset_priors,
+                                               const std::vector<double>& recent_spreads_px) const {
+  if (!recent_spreads_px.empty() && recent_spreads_px.size() != bones_.size()) {
+    throw InputError("registration: recent contour spreads for " +
+                     std::to_string(recent_spreads_px.size()) + " bone(s), not " +
+                     std::to_string(bones_.size()));
+  }
   if (!offset_priors.empty()) {
     bool valid = offset_priors.size() == bones_.size();
     for (const auto& per_view : offset_priors) {
@@ -861,7 +871,7 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
                                            settings_.threads, &finest_maps, &unchecked);
   retryReflections(views, initial_poses, loaded, offset_priors, unchecked ? &*unchecked : nullptr,
                    &result);
-  retryRotations(views, loaded, offset_priors, &result);
+  retryRotations(views, loaded, offset_priors, recent_spreads_px, &result);
   if (!settings_.depth_retry.enabled) return result;
   // Fewer bones not ok first (lost counts twice), then more contour inliers.
   const auto rank = [&](const RegistrationResult& r) { return resultRank(r, settings_.quality); };
@@ -1024,6 +1034,7 @@ void Registrar::retryReflections(const std::vector<ViewImage>& views,
 
 void Registrar::retryRotations(const std::vector<ViewImage>& views, const std::vector<bool>& loaded,
                                const EdgeOffsetPriors& offset_priors,
+                               const std::vector<double>& recent_spreads_px,
                                RegistrationResult* result) const {
   const RotationRetrySettings& retry_settings = settings_.rotation_retry;
   if (!retry_settings.enabled || result->quality.size() != result->poses.size()) return;
@@ -1031,16 +1042,24 @@ void Registrar::retryRotations(const std::vector<ViewImage>& views, const std::v
   const std::array<Eigen::Matrix3d, 6> turns = {
       geometry::rotationX(step),  geometry::rotationX(-step), geometry::rotationY(step),
       geometry::rotationY(-step), geometry::rotationZ(step),  geometry::rotationZ(-step)};
-  std::vector<std::vector<geometry::Pose>> starts;
-  for (std::size_t b = 0; b < result->poses.size(); ++b) {
-    if (result->diverged[b] ||
-        !(result->quality[b].contour_spread_px > retry_settings.above_contour_spread_px)) {
-      continue;
+  const bool tracked = !recent_spreads_px.empty();
+  const auto threshold = [&](std::size_t b) {
+    if (!tracked) return retry_settings.above_contour_spread_px;
+    if (!std::isfinite(recent_spreads_px[b]) || !(retry_settings.tracking_spread_rise > 0.0)) {
+      return std::numeric_limits<double>::infinity();
     }
+    return std::max(retry_settings.above_contour_spread_px,
+                    retry_settings.tracking_spread_rise * recent_spreads_px[b]);
+  };
+  std::vector<std::vector<geometry::Pose>> starts;
+  std::vector<std::size_t> turned_bone;  // per start
+  for (std::size_t b = 0; b < result->poses.size(); ++b) {
+    if (result->diverged[b] || !(result->quality[b].contour_spread_px > threshold(b))) continue;
     for (const Eigen::Matrix3d& turn : turns) {
       std::vector<geometry::Pose> turned = result->poses;
       turned[b].linear() = result->poses[b].linear() * turn;
       starts.push_back(std::move(turned));
+      turned_bone.push_back(b);
     }
   }
   if (starts.empty()) return;
@@ -1059,6 +1078,14 @@ void Registrar::retryRotations(const std::vector<ViewImage>& views, const std::v
     const bool diverged =
         std::find(retry.diverged.begin(), retry.diverged.end(), true) != retry.diverged.end();
     if (diverged || resultRank(retry, settings_.quality).first > first_trouble) continue;
+    // A tracked frame's retry must also undo at least half the rise that called it: on noisy
+    // frames a turned start often ends at a lower cost with the spread about as wide, another
+    // guess rather than a better fit.
+    const std::size_t b = turned_bone[k];
+    if (tracked && !(retry.quality[b].contour_spread_px <=
+                     0.5 * (result->quality[b].contour_spread_px + recent_spreads_px[b]))) {
+      continue;
+    }
     if (retry.final_cost < best_cost) {
       best_cost = retry.final_cost;
       best = k;

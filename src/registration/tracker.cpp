@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <exception>
+#include <limits>
 #include <optional>
 
 #include "fluoro_tracker/input_error.h"
@@ -76,7 +78,9 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
     // A continued frame starts near its answer; a lost one is searched (see track()).
     continuing.depth_retry.enabled = false;
     continuing.reflection_retry.enabled = false;
-    continuing.rotation_retry.enabled = false;
+    // Only for a bone whose spread rose above its recent frames' (see recentSpreads()).
+    continuing.rotation_retry.enabled =
+        settings.rotation_retry.enabled && settings.rotation_retry.tracking_spread_rise > 0.0;
     // Only the turn (and tilt) reflection, and only near the view where the branches meet (see
     // MirrorCheckSettings::tracking_turn_max_difference_deg).
     const MirrorCheckSettings& mirror = settings.mirror_check;
@@ -196,6 +200,15 @@ void Tracker::accept(TrackedFrame* frame) {
   if (first && any_lost) poses_.clear();  // not found yet: search again next frame
   recovering_ = any_lost && search_ != nullptr;
   poses_registered_ = !poses_.empty();
+  const std::size_t window =
+      static_cast<std::size_t>(std::max(1, registrar_->settings().quality.relative_inlier_window));
+  recent_spreads_.resize(frame->status.size());
+  for (std::size_t b = 0; b < frame->status.size() && b < frame->result.quality.size(); ++b) {
+    const double spread = frame->result.quality[b].contour_spread_px;
+    if (frame->status[b] == "lost" || !std::isfinite(spread)) continue;
+    recent_spreads_[b].push_back(spread);
+    if (recent_spreads_[b].size() > window) recent_spreads_[b].pop_front();
+  }
   last_ok_.resize(frame->status.size());
   frames_since_ok_.resize(frame->status.size(), 0);
   for (std::size_t b = 0; b < frame->status.size(); ++b) {
@@ -219,6 +232,19 @@ std::vector<bool> Tracker::fitsWorseThanRecently(const RegistrationResult& resul
         outline_history_.fallsBelowMedian(b, outline_history_.fractionOf(result.quality[b]), drop);
   }
   return worse;
+}
+
+std::vector<double> Tracker::recentSpreads() const {
+  const std::size_t min_frames = static_cast<std::size_t>(
+      std::max(1, registrar_->settings().quality.relative_inlier_min_frames));
+  std::vector<double> medians(registrar_->bones().size(), std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t b = 0; b < medians.size() && b < recent_spreads_.size(); ++b) {
+    if (recent_spreads_[b].size() < min_frames) continue;
+    std::vector<double> sorted(recent_spreads_[b].begin(), recent_spreads_[b].end());
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    medians[b] = sorted[sorted.size() / 2];
+  }
+  return medians;
 }
 
 bool Tracker::fitsClearlyBetter(const RegistrationResult& retry, int retry_trouble,
@@ -282,8 +308,9 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
   // motion so far is better evidence than the neutral-joint rule. Poses given by the user (the
   // first frame, reinitialize) are checked.
   const EdgeOffsetPriors priors = edge_offsets_.priors(registrar_->bones().size(), views.size());
-  frame.result =
-      (poses_registered_ ? continuing_registrar_ : registrar_)->solve(views, guess, loaded, priors);
+  frame.result = poses_registered_
+                     ? continuing_registrar_->solve(views, guess, loaded, priors, recentSpreads())
+                     : registrar_->solve(views, guess, loaded, priors);
   const QualitySettings& quality = registrar_->settings().quality;
   frame.status = classifyBones(frame.result, quality);
   const bool more_doubt = statusTrouble(frame.status) > previous_trouble_;

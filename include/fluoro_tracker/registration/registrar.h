@@ -200,11 +200,18 @@ struct ReflectionRetrySettings {
 // "Registration"). The registrar then solves the frame again from the result with that bone
 // turned by `step_deg` either way about each of its three axes and keeps the solve with the
 // lowest cost, if lower than the result's and no bone's status is worse. Registrations from
-// the user's poses only (frames the tracker continues and the search's refinements do not).
+// the user's poses; the search's refinements do not retry. A frame the tracker continues
+// retries a bone only where its spread also rose above `tracking_spread_rise` times the median
+// of its recent frames (0: never), and keeps a retry only if it undoes at least half that rise:
+// a tray sliding frame by frame into such a minimum (its tilt 3 deg off by the end of a
+// simulated trial, every status ok) is freed, while a bone whose spread is wide in every frame
+// (bright titanium, poor images) is not solved seven times a frame, and a noisy frame's retry
+// that only lands elsewhere at a lower cost is not taken.
 struct RotationRetrySettings {
   bool enabled = true;
   double above_contour_spread_px = 0.45;
   double step_deg = 3.0;
+  double tracking_spread_rise = 1.25;
 };
 
 struct EdgeOffsetTrackingSettings {
@@ -588,10 +595,14 @@ class Registrar {
   // `loaded`: per joint, whether it is known to be loaded in this frame (its loaded_contact
   // term then joins); empty: none is. `offset_priors` (per bone and view; empty: the settings'
   // zero-mean edge_offset_prior_px) start each edge offset at its mean and hold it near it.
+  // `recent_spreads_px` (a tracked frame's: per bone, the median contour spread of its recent
+  // frames, NaN with too few) makes the rotation retry that of a tracked frame
+  // (RotationRetrySettings::tracking_spread_rise); empty: a registration from the user's poses.
   RegistrationResult solve(const std::vector<ViewImage>& views,
                            const std::vector<geometry::Pose>& initial_poses,
                            const std::vector<bool>& loaded = {},
-                           const EdgeOffsetPriors& offset_priors = {}) const;
+                           const EdgeOffsetPriors& offset_priors = {},
+                           const std::vector<double>& recent_spreads_px = {}) const;
 
  private:
   // A registration's poses before its joint figures and image quality are worked out, with
@@ -622,7 +633,8 @@ class Registrar {
   RegistrationResult solveWithRetries(const std::vector<ViewImage>& views,
                                       const std::vector<geometry::Pose>& initial_poses,
                                       const std::vector<bool>& loaded,
-                                      const EdgeOffsetPriors& offset_priors) const;
+                                      const EdgeOffsetPriors& offset_priors,
+                                      const std::vector<double>& recent_spreads_px) const;
   // The reflection retry (ReflectionRetrySettings) of `result`, solved from these arguments;
   // `unchecked` (optional) is the first solution the mirror check replaced with `result`.
   void retryReflections(const std::vector<ViewImage>& views,
@@ -638,9 +650,12 @@ class Registrar {
                                   const EdgeOffsetPriors& offset_priors, int threads,
                                   std::vector<imaging::EdgeMap>* finest_maps_out = nullptr,
                                   std::optional<RegistrationResult>* unchecked_out = nullptr) const;
-  // The rotation retry (RotationRetrySettings) of `result`, solved from these arguments.
+  // The rotation retry (RotationRetrySettings) of `result`, solved from these arguments;
+  // `recent_spreads_px` as in solve().
   void retryRotations(const std::vector<ViewImage>& views, const std::vector<bool>& loaded,
-                      const EdgeOffsetPriors& offset_priors, RegistrationResult* result) const;
+                      const EdgeOffsetPriors& offset_priors,
+                      const std::vector<double>& recent_spreads_px,
+                      RegistrationResult* result) const;
   // Whether the mirror check reflects bone `b` (the child of a knee joint).
   bool mirrorChecked(std::size_t b) const;
   // The depth retry's starts: `poses` with every bone moved along its ray from the first view's

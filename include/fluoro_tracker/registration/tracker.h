@@ -1,5 +1,6 @@
 #pragma once
 
+#include <deque>
 #include <memory>
 #include <optional>
 #include <string>
@@ -94,6 +95,10 @@ class Tracker {
   // below the median of its recent frames (single view only; all false with more views).
   std::vector<bool> fitsWorseThanRecently(const RegistrationResult& result,
                                           std::size_t views) const;
+  // Per bone, the median contour spread of its recent frames, which a continued frame's
+  // rotation retry compares it with (RotationRetrySettings::tracking_spread_rise); NaN before
+  // it has QualitySettings::relative_inlier_min_frames of them.
+  std::vector<double> recentSpreads() const;
   // Whether a retry of a frame not in more doubt replaces its continued result: no more trouble
   // (statusTrouble, given for each), a lower final cost, and the bones in `fits_worse` gaining at
   // least tracking_retry_min_inlier_gain of inlier fraction together.
@@ -128,6 +133,9 @@ class Tracker {
   // worse than recently (fitsWorseThanRecently): a bone sliding along the beam with its edge
   // offset keeps its fraction at the offset, not this one.
   InlierHistory outline_history_;
+  // Per bone, the contour spreads of its recent frames not lost (QualitySettings::
+  // relative_inlier_window of them, oldest first), for recentSpreads().
+  std::vector<std::deque<double>> recent_spreads_;
 };
 
 }  // namespace registration

@@ -376,7 +376,8 @@ registration:
                  start_deviation_excess: 2.5, neutral_internal_rotation_per_flexion: 0.1}
   reflection_retry: {enabled: false, below_inlier_fraction: 0.7, min_inlier_gain: 0.1,
                      before_mirror_check: false}
-  rotation_retry: {enabled: false, above_contour_spread_px: 0.6, step_deg: 4}
+  rotation_retry: {enabled: false, above_contour_spread_px: 0.6, step_deg: 4,
+                   tracking_spread_rise: 1.5}
   depth_retry: {enabled: false, shifts_mm: [-10, 10, -25], light_below_inlier_fraction: 0.8}
   quality: {relative_inlier_drop: 0.2, relative_inlier_spread: 2.5, relative_inlier_window: 10,
             relative_inlier_min_frames: 5, relative_inlier_trend_frames: 6,
@@ -413,6 +414,7 @@ registration:
   EXPECT_FALSE(c.registration.rotation_retry.enabled);
   EXPECT_DOUBLE_EQ(c.registration.rotation_retry.above_contour_spread_px, 0.6);
   EXPECT_DOUBLE_EQ(c.registration.rotation_retry.step_deg, 4.0);
+  EXPECT_DOUBLE_EQ(c.registration.rotation_retry.tracking_spread_rise, 1.5);
   EXPECT_FALSE(c.registration.depth_retry.enabled);
   EXPECT_EQ(c.registration.depth_retry.shifts_mm, (std::vector<double>{-10.0, 10.0, -25.0}));
   EXPECT_DOUBLE_EQ(c.registration.depth_retry.light_below_inlier_fraction, 0.8);
@@ -512,6 +514,8 @@ registration:
   expectRegistrationRejected("{rotation_retry: {step_deg: 0}}", "step_deg > 0");
   expectRegistrationRejected("{rotation_retry: {above_contour_spread_px: -1}}",
                              "above_contour_spread_px >= 0");
+  expectRegistrationRejected("{rotation_retry: {tracking_spread_rise: -1}}",
+                             "tracking_spread_rise >= 0");
   expectRegistrationRejected("{reflection_retry: {min_inlier_gains: 0.1}}", "min_inlier_gains");
   expectRegistrationRejected("{depth_retry: {shifts_mm: [-15, 0]}}",
                              "depth_retry: shifts_mm must be finite and non-zero");
@@ -601,6 +605,8 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.registration.rotation_retry.above_contour_spread_px,
                    d.rotation_retry.above_contour_spread_px);
   EXPECT_DOUBLE_EQ(c.registration.rotation_retry.step_deg, d.rotation_retry.step_deg);
+  EXPECT_DOUBLE_EQ(c.registration.rotation_retry.tracking_spread_rise,
+                   d.rotation_retry.tracking_spread_rise);
   EXPECT_EQ(c.registration.depth_retry.enabled, d.depth_retry.enabled);
   EXPECT_EQ(c.registration.depth_retry.shifts_mm, d.depth_retry.shifts_mm);
   EXPECT_EQ(c.registration.depth_retry.light_below_inlier_fraction,

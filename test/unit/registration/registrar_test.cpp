@@ -266,6 +266,8 @@ TEST(Registrar, EdgeOffsetPriorsAreHonoured) {
   EXPECT_THROW_WITH(registrar.solve(views, truth, {}, priors), "edge offset priors");
   priors.pop_back();
   EXPECT_THROW_WITH(registrar.solve(views, truth, {}, priors), "edge offset priors");
+  // Likewise a tracked frame's recent contour spreads (RotationRetrySettings): one per bone.
+  EXPECT_THROW_WITH(registrar.solve(views, truth, {}, {}, {0.3}), "recent contour spreads");
 }
 
 // Ligament springs act only outside the joint's envelope: a registration result inside the knee
