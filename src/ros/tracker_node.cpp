@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 
 #include <cv_bridge/cv_bridge.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <image_transport/camera_common.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -82,35 +84,65 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   private_nh_.param("views", views, 1);
   bool exact_sync = true;
   private_nh_.param("exact_sync", exact_sync, true);
+  // image_transport would load the "compressed" transport from its plugin, which Debian does
+  // not package; the node decodes those frames itself (CompressedImageFilter).
+  std::string transport = "raw";
+  private_nh_.param("image_transport", transport, transport);
+  const bool compressed = transport == "compressed";
+  const auto queue = static_cast<std::uint32_t>(queue_size);
   if (views == 1) {
     // The callback only converts and queues, so the subscriber's own queue rarely fills; as deep
     // as ours, a burst that ours can hold is not lost uncounted before it.
-    camera_subscriber_ =
-        image_transport_.subscribeCamera("image", queue_size, &TrackerNode::onImage, this);
+    std::string topic;
+    if (compressed) {
+      const std::string base = nh_.resolveName("image");
+      compressed_filters_.push_back(std::make_unique<CompressedImageFilter>(nh_, base, queue));
+      info_filters_.push_back(
+          std::make_unique<message_filters::Subscriber<sensor_msgs::CameraInfo>>(
+              nh_, image_transport::getCameraInfoTopic(base), queue));
+      compressed_sync_ = std::make_unique<
+          message_filters::TimeSynchronizer<sensor_msgs::Image, sensor_msgs::CameraInfo>>(
+          *compressed_filters_[0], *info_filters_[0], queue);
+      compressed_sync_->registerCallback(&TrackerNode::onImage, this);
+      topic = compressed_filters_[0]->getTopic();
+    } else {
+      camera_subscriber_ =
+          image_transport_.subscribeCamera("image", queue_size, &TrackerNode::onImage, this);
+      topic = camera_subscriber_.getTopic();
+    }
     ROS_INFO("tracker_node: tracking %zu bone(s) from '%s' on %s", config_.bones.size(),
-             config_path.c_str(), camera_subscriber_.getTopic().c_str());
+             config_path.c_str(), topic.c_str());
   } else if (views == 2) {
     for (int v = 1; v <= 2; ++v) {
       const std::string prefix = "view_" + std::to_string(v) + "/";
-      image_filters_.push_back(std::make_unique<image_transport::SubscriberFilter>(
-          image_transport_, prefix + "image", queue_size));
+      if (compressed) {
+        compressed_filters_.push_back(
+            std::make_unique<CompressedImageFilter>(nh_, nh_.resolveName(prefix + "image"), queue));
+      } else {
+        image_filters_.push_back(std::make_unique<image_transport::SubscriberFilter>(
+            image_transport_, prefix + "image", queue_size));
+      }
       info_filters_.push_back(
           std::make_unique<message_filters::Subscriber<sensor_msgs::CameraInfo>>(
               nh_, prefix + "camera_info", queue_size));
     }
+    using ImageFilter = message_filters::SimpleFilter<sensor_msgs::Image>;
+    ImageFilter& view_1 = compressed ? static_cast<ImageFilter&>(*compressed_filters_[0])
+                                     : static_cast<ImageFilter&>(*image_filters_[0]);
+    ImageFilter& view_2 = compressed ? static_cast<ImageFilter&>(*compressed_filters_[1])
+                                     : static_cast<ImageFilter&>(*image_filters_[1]);
     if (exact_sync) {
       exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
-          ExactPolicy(10), *image_filters_[0], *info_filters_[0], *image_filters_[1],
-          *info_filters_[1]);
+          ExactPolicy(10), view_1, *info_filters_[0], view_2, *info_filters_[1]);
       exact_sync_->registerCallback(&TrackerNode::onTwoViews, this);
     } else {
       approximate_sync_ = std::make_unique<message_filters::Synchronizer<ApproximatePolicy>>(
-          ApproximatePolicy(10), *image_filters_[0], *info_filters_[0], *image_filters_[1],
-          *info_filters_[1]);
+          ApproximatePolicy(10), view_1, *info_filters_[0], view_2, *info_filters_[1]);
       approximate_sync_->registerCallback(&TrackerNode::onTwoViews, this);
     }
-    ROS_INFO("tracker_node: tracking %zu bone(s) from '%s' on two views (%s sync)",
-             config_.bones.size(), config_path.c_str(), exact_sync ? "exact" : "approximate");
+    ROS_INFO("tracker_node: tracking %zu bone(s) from '%s' on two views (%s sync%s)",
+             config_.bones.size(), config_path.c_str(), exact_sync ? "exact" : "approximate",
+             compressed ? ", compressed frames" : "");
   } else {
     throw InputError("~views must be 1 or 2, not " + std::to_string(views));
   }
@@ -168,6 +200,7 @@ void TrackerNode::publishLabTransform() {
 
 TrackerNode::~TrackerNode() {
   camera_subscriber_.shutdown();
+  for (auto& filter : compressed_filters_) filter->shutdown();
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     stopping_ = true;

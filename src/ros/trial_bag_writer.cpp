@@ -9,6 +9,18 @@
 namespace fluoro_tracker {
 namespace ros_bridge {
 
+std::optional<TrialBagWriter::Compression> TrialBagWriter::compressionFromOptions(
+    const std::string& text, int jpeg_quality) {
+  if (text != "none" && text != "png" && text != "jpeg") {
+    throw InputError("--compression '" + text + "' is not none, png or jpeg");
+  }
+  if (jpeg_quality < 1 || jpeg_quality > 100) {
+    throw InputError("--jpeg-quality must be between 1 and 100");
+  }
+  if (text == "none") return std::nullopt;
+  return Compression{parseImageCompression(text, "--compression"), jpeg_quality};
+}
+
 TrialBagWriter::TrialBagWriter(const std::string& path, const std::vector<io::FluoroView>& views,
                                const std::string& fixed_frame, double first_stamp_s,
                                std::optional<Compression> compression)

@@ -110,17 +110,8 @@ int main(int argc, char** argv) {
     if (!(start_stamp_s > 0.0) || !std::isfinite(start_stamp_s)) {
       throw InputError("--start-stamp-s must be positive (bags cannot hold time 0)");
     }
-    std::optional<ros_bridge::TrialBagWriter::Compression> compression;
-    if (compression_text != "none" && compression_text != "png" && compression_text != "jpeg") {
-      throw InputError("--compression '" + compression_text + "' is not none, png or jpeg");
-    }
-    if (compression_text != "none") {
-      compression = ros_bridge::TrialBagWriter::Compression{
-          ros_bridge::parseImageCompression(compression_text, "--compression"), jpeg_quality};
-    }
-    if (jpeg_quality < 1 || jpeg_quality > 100) {
-      throw InputError("--jpeg-quality must be between 1 and 100");
-    }
+    const std::optional<ros_bridge::TrialBagWriter::Compression> compression =
+        ros_bridge::TrialBagWriter::compressionFromOptions(compression_text, jpeg_quality);
     const auto jts_files = namedValues(jts_args, "jts");
     const auto mesh_files = namedValues(mesh_args, "mesh");
     if (!reference_path.empty() && jts_files.empty()) {

@@ -4,6 +4,8 @@
 #include <chrono>
 #include <filesystem>
 #include <iostream>
+#include <optional>
+#include <string>
 
 #include <unistd.h>
 
@@ -47,13 +49,20 @@ int main(int argc, char** argv) {
       "simulate_trial: synthetic single- or bi-plane total-knee fluoroscopy trial\n\nOptions");
   std::string config_path;
   std::string output_dir;
+  std::string compression_text = "none";
+  int jpeg_quality = 95;
   options.add_options()("help,h", "show this help")(
       "config", po::value(&config_path), "simulator settings YAML (default: built-in defaults)")(
       "output,o", po::value(&output_dir)->default_value("trial"), "output folder")(
       "frames", po::value<int>(), "number of frames (overrides the config)")(
       "views", po::value<int>(), "1 (single plane) or 2 (bi-plane)")(
       "seed", po::value<std::uint64_t>(), "noise seed")("bit-depth", po::value<int>(), "8 or 16")(
-      "implants-bright", po::bool_switch(), "render implants bright (inverted polarity)");
+      "implants-bright", po::bool_switch(), "render implants bright (inverted polarity)")(
+      "compression", po::value(&compression_text)->default_value(compression_text),
+      "none (sensor_msgs/Image), png (lossless) or jpeg (8-bit frames, lossy): stored as "
+      "image_transport's compressed transport does, on .../image_raw/compressed")(
+      "jpeg-quality", po::value(&jpeg_quality)->default_value(jpeg_quality),
+      "JPEG quality, 1-100 (--compression jpeg)");
   po::variables_map vm;
   if (const auto exit_code = tools::parseCommandLine("simulate_trial", options, argc, argv, &vm)) {
     return *exit_code;
@@ -68,6 +77,8 @@ int main(int argc, char** argv) {
     if (vm.count("bit-depth")) settings.detector.bit_depth = vm["bit-depth"].as<int>();
     if (vm["implants-bright"].as<bool>()) settings.detector.implants_bright = true;
 
+    const std::optional<ros_bridge::TrialBagWriter::Compression> compression =
+        ros_bridge::TrialBagWriter::compressionFromOptions(compression_text, jpeg_quality);
     const auto start = std::chrono::steady_clock::now();
     const sim::TrialSimulator simulator(settings);
     fs::create_directories(output_dir);
@@ -83,7 +94,7 @@ int main(int argc, char** argv) {
 
     std::mt19937_64 rng(settings.seed);
     ros_bridge::TrialBagWriter bag(bag_path, simulator.views(), simulator.fixedFrame(),
-                                   settings.start_stamp_s);
+                                   settings.start_stamp_s, compression);
     std::vector<io::PoseRecord> truth;
     std::vector<cv::Mat> preview_frames;
     const int frames = simulator.frameCount();

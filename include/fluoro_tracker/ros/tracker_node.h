@@ -16,6 +16,7 @@
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/sync_policies/exact_time.h>
 #include <message_filters/synchronizer.h>
+#include <message_filters/time_synchronizer.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -31,13 +32,15 @@
 #include "fluoro_tracker/io/trial_config.h"
 #include "fluoro_tracker/io/trial_models.h"
 #include "fluoro_tracker/registration/tracker.h"
+#include "fluoro_tracker/ros/compressed_image_filter.h"
 #include "fluoro_tracker/ros/view_rectifier.h"
 
 namespace fluoro_tracker {
 namespace ros_bridge {
 
 // The tracking node (docs/interfaces.md): a thin ROS wrapper around registration::Tracker.
-// One view through an image_transport camera subscription (`image` + its `camera_info`), or
+// One view through an image_transport camera subscription (`image` + its `camera_info`; with
+// ~image_transport: compressed, `image/compressed` decoded by the node itself), or
 // two (bi-plane, ~views: 2) through `view_1/image`, `view_1/camera_info`, `view_2/...`
 // synchronised by message_filters (exact stamps, or approximate with ~exact_sync: false).
 // Frames are registered in order on a worker thread from a queue of ~queue_size frames (30 by
@@ -113,7 +116,14 @@ class TrackerNode {
   // Two views (~views: 2): view_1/image, view_1/camera_info, view_2/..., synchronised exactly
   // or approximately (~exact_sync).
   std::vector<std::unique_ptr<image_transport::SubscriberFilter>> image_filters_;
+  // With ~image_transport: compressed, each view's frames through CompressedImageFilter instead
+  // (no plugin needed), one view's synchronised with its camera_info by compressed_sync_.
+  std::vector<std::unique_ptr<CompressedImageFilter>> compressed_filters_;
   std::vector<std::unique_ptr<message_filters::Subscriber<sensor_msgs::CameraInfo>>> info_filters_;
+  // The synchronisers after the filters they connect: destroyed first, they disconnect from
+  // filters still alive.
+  std::unique_ptr<message_filters::TimeSynchronizer<sensor_msgs::Image, sensor_msgs::CameraInfo>>
+      compressed_sync_;
   std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
   std::unique_ptr<message_filters::Synchronizer<ApproximatePolicy>> approximate_sync_;
   image_transport::Publisher overlay_publisher_;

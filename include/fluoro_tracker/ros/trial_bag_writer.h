@@ -28,6 +28,10 @@ class TrialBagWriter {
     ImageCompression format = ImageCompression::kPng;
     int jpeg_quality = 95;
   };
+  // A tool's --compression none|png|jpeg and --jpeg-quality (1-100): unset for none. Throws
+  // InputError naming the option for another text or a quality out of range.
+  static std::optional<Compression> compressionFromOptions(const std::string& text,
+                                                           int jpeg_quality);
 
   // Opens (truncates) the bag and, for several views, writes /tf_static. `compression` unset:
   // raw sensor_msgs/Image. Throws InputError if the file cannot be created.
