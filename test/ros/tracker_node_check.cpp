@@ -11,6 +11,7 @@
 #include <rosbag/view.h>
 #include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/buffer.h>
@@ -294,39 +295,54 @@ TEST(TrackerNode, ServicesAnswerBadRequestsAndWork) {
 }
 
 // A frame stamped earlier than frames already tracked (out-of-order stamps) is still tracked,
-// and the node says so on /rosout, naming the problem. Single view (`image_topic` given).
+// and the node says so on /rosout, naming the problem. Single view: on `image_topic`, or, for a
+// node that decodes compressed frames (~image_transport: compressed), on
+// `compressed_image_topic`, where a frame that does not decode is sent first: skipped, and
+// logged with its reason.
 TEST(TrackerNode, TracksAnOutOfOrderFrameAndSaysSo) {
-  const std::string image_topic = param("image_topic");
-  if (image_topic.empty()) GTEST_SKIP() << "run with a single-view node";
-  const std::string info_topic = image_topic.substr(0, image_topic.rfind('/') + 1) + "camera_info";
+  const std::string raw_topic = param("image_topic");
+  const std::string compressed_topic = param("compressed_image_topic");
+  if (raw_topic.empty() && compressed_topic.empty()) GTEST_SKIP() << "run with a single-view node";
+  const bool compressed = !compressed_topic.empty();
+  const std::string image_topic = compressed ? compressed_topic : raw_topic;
+  const std::string base = compressed ? image_topic.substr(0, image_topic.rfind('/')) : image_topic;
+  const std::string info_topic = base.substr(0, base.rfind('/') + 1) + "camera_info";
   // The trial's first frame: older than every frame the node has tracked by now.
   rosbag::Bag bag(param("bag"));
   sensor_msgs::Image::ConstPtr image;
+  sensor_msgs::CompressedImage::ConstPtr compressed_image;
   sensor_msgs::CameraInfo::ConstPtr info;
   for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
     if (!image) image = m.instantiate<sensor_msgs::Image>();
+    if (!compressed_image) compressed_image = m.instantiate<sensor_msgs::CompressedImage>();
     if (!info) info = m.instantiate<sensor_msgs::CameraInfo>();
-    if (image && info) break;
+    if ((compressed ? bool(compressed_image) : bool(image)) && info) break;
   }
-  ASSERT_TRUE(image && info);
-  ASSERT_EQ(image->header.stamp, info->header.stamp);
+  ASSERT_TRUE((compressed ? bool(compressed_image) : bool(image)) && info);
+  const ros::Time stamp = compressed ? compressed_image->header.stamp : image->header.stamp;
+  ASSERT_EQ(stamp, info->header.stamp);
   ros::NodeHandle nh;
   std::mutex mutex;
   bool tracked = false;
   bool warned = false;
-  auto status_sub = nh.subscribe<TrackingStatus>(
-      "/tracker_node/status", 10, [&](const TrackingStatus::ConstPtr& m) {
-        std::lock_guard<std::mutex> lock(mutex);
-        tracked = tracked || m->header.stamp == image->header.stamp;
-      });
+  bool undecodable_logged = false;
+  auto status_sub = nh.subscribe<TrackingStatus>("/tracker_node/status", 10,
+                                                 [&](const TrackingStatus::ConstPtr& m) {
+                                                   std::lock_guard<std::mutex> lock(mutex);
+                                                   tracked = tracked || m->header.stamp == stamp;
+                                                 });
   auto rosout_sub =
       nh.subscribe<rosgraph_msgs::Log>("/rosout", 100, [&](const rosgraph_msgs::Log::ConstPtr& m) {
         std::lock_guard<std::mutex> lock(mutex);
         warned = warned || m->msg.find("out-of-order stamps") != std::string::npos;
+        undecodable_logged =
+            undecodable_logged || (m->msg.find("compressed frame at") != std::string::npos &&
+                                   m->msg.find("skipped") != std::string::npos);
       });
   ros::AsyncSpinner spinner(1);
   spinner.start();
-  ros::Publisher image_pub = nh.advertise<sensor_msgs::Image>(image_topic, 1);
+  ros::Publisher image_pub = compressed ? nh.advertise<sensor_msgs::CompressedImage>(image_topic, 1)
+                                        : nh.advertise<sensor_msgs::Image>(image_topic, 1);
   ros::Publisher info_pub = nh.advertise<sensor_msgs::CameraInfo>(info_topic, 1);
   const ros::WallTime connect_deadline = ros::WallTime::now() + ros::WallDuration(10.0);
   while ((image_pub.getNumSubscribers() == 0 || info_pub.getNumSubscribers() == 0 ||
@@ -336,19 +352,32 @@ TEST(TrackerNode, TracksAnOutOfOrderFrameAndSaysSo) {
   }
   ASSERT_GT(image_pub.getNumSubscribers(), 0u) << "the node does not listen on " << image_topic;
   ros::WallDuration(0.5).sleep();  // let the rosout subscription connect too
+  if (compressed) {
+    sensor_msgs::CompressedImage broken = *compressed_image;
+    broken.data.resize(broken.data.size() / 3);  // a truncated PNG
+    image_pub.publish(broken);
+    ros::WallDuration(0.5).sleep();
+  }
   info_pub.publish(info);
-  image_pub.publish(image);
+  if (compressed) {
+    image_pub.publish(compressed_image);
+  } else {
+    image_pub.publish(image);
+  }
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(20.0);
   while (ros::WallTime::now() < deadline) {
     {
       std::lock_guard<std::mutex> lock(mutex);
-      if (tracked && warned) break;
+      if (tracked && warned && (undecodable_logged || !compressed)) break;
     }
     ros::WallDuration(0.1).sleep();
   }
   std::lock_guard<std::mutex> lock(mutex);
   EXPECT_TRUE(tracked) << "no status for the out-of-order frame";
   EXPECT_TRUE(warned) << "no out-of-order warning on /rosout";
+  if (compressed) {
+    EXPECT_TRUE(undecodable_logged) << "no error for the frame that does not decode";
+  }
 }
 
 int main(int argc, char** argv) {
