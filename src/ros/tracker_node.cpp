@@ -62,8 +62,6 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
     pose_publishers_.push_back(
         private_nh_.advertise<geometry_msgs::PoseWithCovarianceStamped>(bone.name + "/pose", 10));
   }
-  diagnostics_.setHardwareID("fluoroscope");
-  diagnostics_.add("tracking", this, &TrackerNode::diagnose);
   reinitialize_service_ =
       private_nh_.advertiseService("reinitialize", &TrackerNode::onReinitialize, this);
   play_bag_service_ = private_nh_.advertiseService("play_bag", &TrackerNode::onPlayBag, this);
@@ -146,6 +144,9 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
   } else {
     throw InputError("~views must be 1 or 2, not " + std::to_string(views));
   }
+  // After the subscriptions, whose filters it reads.
+  diagnostics_.setHardwareID("fluoroscope");
+  diagnostics_.add("tracking", this, &TrackerNode::diagnose);
   // Last: a constructor that throws must not leave a running thread behind.
   worker_ = std::thread(&TrackerNode::work, this);
 }
@@ -488,6 +489,11 @@ void TrackerNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) 
   status.add("frames dropped (tracker busy)", frames_dropped_);
   status.add("frames waiting", pending_.size());
   status.add("bone-frames lost", frames_lost_);
+  if (!compressed_filters_.empty()) {
+    std::size_t undecodable = 0;
+    for (const auto& filter : compressed_filters_) undecodable += filter->skipped();
+    status.add("compressed frames that did not decode", undecodable);
+  }
   status.add("last solve time (s)", last_solve_seconds_);
 }
 
