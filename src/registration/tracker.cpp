@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "fluoro_tracker/input_error.h"
+#include "fluoro_tracker/median.h"
 #include "fluoro_tracker/parallel_for.h"
 #include "fluoro_tracker/registration/motion_prediction.h"
 
@@ -240,9 +241,7 @@ std::vector<double> Tracker::recentSpreads() const {
   std::vector<double> medians(registrar_->bones().size(), std::numeric_limits<double>::quiet_NaN());
   for (std::size_t b = 0; b < medians.size() && b < recent_spreads_.size(); ++b) {
     if (recent_spreads_[b].size() < min_frames) continue;
-    std::vector<double> sorted(recent_spreads_[b].begin(), recent_spreads_[b].end());
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    medians[b] = sorted[sorted.size() / 2];
+    medians[b] = median(std::vector<double>(recent_spreads_[b].begin(), recent_spreads_[b].end()));
   }
   return medians;
 }

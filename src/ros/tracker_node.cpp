@@ -125,10 +125,12 @@ TrackerNode::TrackerNode(ros::NodeHandle nh, ros::NodeHandle private_nh)
               nh_, prefix + "camera_info", queue_size));
     }
     using ImageFilter = message_filters::SimpleFilter<sensor_msgs::Image>;
-    ImageFilter& view_1 = compressed ? static_cast<ImageFilter&>(*compressed_filters_[0])
-                                     : static_cast<ImageFilter&>(*image_filters_[0]);
-    ImageFilter& view_2 = compressed ? static_cast<ImageFilter&>(*compressed_filters_[1])
-                                     : static_cast<ImageFilter&>(*image_filters_[1]);
+    const auto image_filter = [&](std::size_t v) -> ImageFilter& {
+      if (compressed) return *compressed_filters_[v];
+      return *image_filters_[v];
+    };
+    ImageFilter& view_1 = image_filter(0);
+    ImageFilter& view_2 = image_filter(1);
     if (exact_sync) {
       exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
           ExactPolicy(10), view_1, *info_filters_[0], view_2, *info_filters_[1]);

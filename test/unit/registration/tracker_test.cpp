@@ -40,17 +40,30 @@ struct Trial {
   }
 };
 
-// A robustness variant (config/robustness/<name>.yaml) and its frames 0 to `last` as
-// simulate_trial writes them (the noise drawn in frame order from the variant's seed).
+// A simulated trial and its frames 0 to `last` as simulate_trial writes them (the noise drawn in
+// frame order from the trial's seed): a robustness variant (config/robustness/<name>.yaml), or
+// a benchmark trial (benchmarkTrial).
 struct VariantFrames {
   sim::TrialSimulator simulator;
   std::vector<sim::SimulatedFrame> frames;
 
   VariantFrames(const std::string& name, int last)
-      : simulator(sim::loadSimulatorSettings(std::string(FLUORO_SOURCE_DIR) +
-                                             "/config/robustness/" + name + ".yaml")) {
+      : VariantFrames(sim::loadSimulatorSettings(std::string(FLUORO_SOURCE_DIR) +
+                                                 "/config/robustness/" + name + ".yaml"),
+                      last) {}
+  VariantFrames(const sim::TrialSimulatorSettings& settings, int last) : simulator(settings) {
     std::mt19937_64 rng(simulator.settings().seed);
     for (int f = 0; f <= last; ++f) frames.push_back(simulator.render(f, &rng));
+  }
+  // Trial `trial` of 60 frames as `benchmark` and `recovery_benchmark --seed seed` vary it
+  // (sim::varyBenchmarkTrial, drawn in trial order; noise seed seed + trial).
+  static sim::TrialSimulatorSettings benchmarkTrial(int seed, int trial) {
+    sim::TrialSimulatorSettings s;
+    s.motion.frames = 60;
+    std::mt19937_64 vary(static_cast<std::uint64_t>(seed));
+    for (int t = 0; t <= trial; ++t) sim::varyBenchmarkTrial(t, &vary, &s);
+    s.seed = static_cast<std::uint64_t>(seed + trial);
+    return s;
   }
   const geometry::XrayCamera& camera() const { return simulator.views()[0].camera; }
   Pose cameraFromFixed() const { return camera().worldFromCamera().inverse(); }
@@ -220,29 +233,14 @@ TEST(Tracker, StartsWithoutPosesAndRecoversAfterABlankFrame) {
 // turn reflection there took the tilt's mirror branch and stayed on it, 2.2-4.4 deg off with
 // every status ok, until frame 29; trying the tilt reflection too keeps the truth's branch.
 TEST(Tracker, TriesTheTiltReflectionWhereTheTraysPlateauPassesEdgeOn) {
-  sim::TrialSimulatorSettings s;
-  s.motion.frames = 60;
-  s.seed = 7;
-  std::mt19937_64 vary(7);
-  sim::varyBenchmarkTrial(0, &vary, &s);
-  const sim::TrialSimulator simulator(s);
-  const geometry::XrayCamera& camera = simulator.views()[0].camera;
-  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
-  std::mt19937_64 noise(s.seed);
-  std::vector<sim::SimulatedFrame> frames;
-  for (int f = 0; f <= 24; ++f) frames.push_back(simulator.render(f, &noise));
+  const VariantFrames trial(VariantFrames::benchmarkTrial(7, 0), 24);
   for (const bool tilt : {false, true}) {
     SCOPED_TRACE(tilt);
     registration::RegistrationSettings settings;
     settings.mirror_check.tracking_tilt_reflection = tilt;
-    registration::Tracker tracker(test_support::simulatedKneeRegistrar(simulator, settings),
-                                  {frames[0].femur, frames[0].tibia});
     int tilted_off = 0;
-    for (const sim::SimulatedFrame& frame : frames) {
-      const registration::TrackedFrame tracked = tracker.track({{frame.images[0], camera}});
-      const registration::PoseError error =
-          registration::poseError(tracked.poses[1], frame.tibia, camera_from_fixed);
-      if (std::abs(error.rotation_deg.x()) > 2.0) ++tilted_off;
+    for (const auto& errors : trial.trackedErrors(settings)) {
+      if (std::abs(errors[1].rotation_deg.x()) > 2.0) ++tilted_off;
     }
     if (tilt) {
       EXPECT_EQ(tilted_off, 0);
@@ -258,29 +256,15 @@ TEST(Tracker, TriesTheTiltReflectionWhereTheTraysPlateauPassesEdgeOn) {
 // A tracked frame's rotation retry (RotationRetrySettings::tracking_spread_rise) frees it there;
 // without it the tray stays off to the trial's end.
 TEST(Tracker, RetriesTheRotationsOfATrayWhoseSpreadRoseAboveItsRecentFrames) {
-  sim::TrialSimulatorSettings s;
-  s.motion.frames = 60;
-  std::mt19937_64 vary(5);
-  for (int trial = 0; trial <= 3; ++trial) sim::varyBenchmarkTrial(trial, &vary, &s);
-  s.seed = 5 + 3;
-  const sim::TrialSimulator simulator(s);
-  const geometry::XrayCamera& camera = simulator.views()[0].camera;
-  const Pose camera_from_fixed = camera.worldFromCamera().inverse();
-  std::mt19937_64 noise(s.seed);
-  std::vector<sim::SimulatedFrame> frames;
-  for (int f = 0; f <= 58; ++f) frames.push_back(simulator.render(f, &noise));
+  const VariantFrames trial(VariantFrames::benchmarkTrial(5, 3), 58);
   for (const double rise : {0.0, registration::RotationRetrySettings().tracking_spread_rise}) {
     SCOPED_TRACE(rise);
     registration::RegistrationSettings settings;
     settings.rotation_retry.tracking_spread_rise = rise;
-    registration::Tracker tracker(test_support::simulatedKneeRegistrar(simulator, settings),
-                                  {frames[0].femur, frames[0].tibia});
+    const auto errors = trial.trackedErrors(settings);
     int off_at_the_end = 0;  // frames 55-58
-    for (std::size_t f = 0; f < frames.size(); ++f) {
-      const registration::TrackedFrame tracked = tracker.track({{frames[f].images[0], camera}});
-      const registration::PoseError error =
-          registration::poseError(tracked.poses[1], frames[f].tibia, camera_from_fixed);
-      if (f >= 55 && !registration::meetsSuccessCriterion(error)) ++off_at_the_end;
+    for (std::size_t f = 55; f < errors.size(); ++f) {
+      if (!registration::meetsSuccessCriterion(errors[f][1])) ++off_at_the_end;
     }
     if (rise > 0.0) {
       EXPECT_EQ(off_at_the_end, 0);
