@@ -20,6 +20,13 @@ void KneeMotionSettings::validate() const {
   if (max_flexion_deg > 150.0 || start_flexion_deg < -10.0) {
     throw InputError("knee motion: flexion must stay within -10..150 deg");
   }
+  if (!joint_travel_mm.allFinite()) throw InputError("knee motion: joint_travel_mm must be finite");
+}
+
+Eigen::Vector3d jointTravelAt(const KneeMotionSettings& settings, int index) {
+  const double progress =
+      settings.frames > 1 ? static_cast<double>(index) / (settings.frames - 1) - 0.5 : 0.0;
+  return 1e-3 * progress * settings.joint_travel_mm;
 }
 
 double femurInsertClearance(const geometry::Pose& tibia_from_femur, const KneeImplantSet& implants,

@@ -84,7 +84,7 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   const io::YamlSection m = r.child("motion");
   m.allowOnly({"frames", "frame_rate_hz", "start_flexion_deg", "max_flexion_deg",
                "internal_rotation_at_max_deg", "rollback_at_max_mm", "adduction_amplitude_deg",
-               "shank_inclination_ratio"});
+               "shank_inclination_ratio", "joint_travel_mm"});
   m.read("frames", &s.motion.frames);
   m.read("frame_rate_hz", &s.motion.frame_rate_hz);
   m.read("start_flexion_deg", &s.motion.start_flexion_deg);
@@ -93,6 +93,13 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   m.read("rollback_at_max_mm", &s.motion.rollback_at_max_mm);
   m.read("adduction_amplitude_deg", &s.motion.adduction_amplitude_deg);
   m.read("shank_inclination_ratio", &s.motion.shank_inclination_ratio);
+  std::vector<double> travel = {s.motion.joint_travel_mm.x(), s.motion.joint_travel_mm.y(),
+                                s.motion.joint_travel_mm.z()};
+  m.read("joint_travel_mm", &travel);
+  if (travel.size() != 3) {
+    throw InputError("simulator settings '" + path + "'.motion.joint_travel_mm must be [x, y, z]");
+  }
+  s.motion.joint_travel_mm = Eigen::Vector3d(travel[0], travel[1], travel[2]);
 
   const io::YamlSection d = r.child("detector");
   d.allowOnly({"photons_per_pixel", "blur_sigma_px", "scatter_strength", "scatter_sigma_mm",

@@ -246,6 +246,14 @@ SimulatedFrame TrialSimulator::truth(int index) const {
     frame.tibia = fixed_from_camera * leftFromRight(camera_from_fixed * frame.tibia);
     frame.femur = fixed_from_camera * leftFromRight(camera_from_fixed * frame.femur);
   }
+  const Eigen::Vector3d travel = jointTravelAt(settings_.motion, index);
+  if (!travel.isZero()) {
+    const Pose fixed_from_camera = views_.front().camera.worldFromCamera();
+    const Pose moved =
+        fixed_from_camera * Eigen::Translation3d(travel) * fixed_from_camera.inverse();
+    frame.tibia = moved * frame.tibia;
+    frame.femur = moved * frame.femur;
+  }
   return frame;
 }
 

@@ -2,6 +2,8 @@
 
 #include <memory>
 
+#include <Eigen/Core>
+
 #include "fluoro_tracker/geometry/pose.h"
 #include "fluoro_tracker/sim/implant_models.h"
 
@@ -22,6 +24,10 @@ struct KneeMotionSettings {
   double adduction_amplitude_deg = 1.0;
   // The shank also inclines in the view as the knee flexes (a squat): fraction of flexion.
   double shank_inclination_ratio = 0.35;
+  // The whole knee travels at constant velocity by this much (mm) over the trial, centred on
+  // the joint's place in the view: x right and y down the first view's image, z along its beam
+  // away from the source (a step-up or lunge that moves the knee across a fixed fluoroscope).
+  Eigen::Vector3d joint_travel_mm = Eigen::Vector3d::Zero();
 
   void validate() const;
 };
@@ -48,6 +54,11 @@ class KneeContactSolver {
   const KneeImplantSet* implants_;
   KneeImplantDimensions dimensions_;
 };
+
+// Where the knee is at frame `index` relative to its place in the view (metres, the first view's
+// camera frame): joint_travel_mm, from minus half of it at the first frame to plus half at the
+// last.
+Eigen::Vector3d jointTravelAt(const KneeMotionSettings& settings, int index);
 
 // Pose of the femur on the tibia at frame `index`, resting on the insert.
 KneeFramePose kneePoseAt(const KneeMotionSettings& settings, int index,

@@ -144,6 +144,37 @@ TEST(TrialSimulator, ShippedConfigLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(s.platform_top_below_joint_mm, d.platform_top_below_joint_mm);
   EXPECT_EQ(s.platform_material, d.platform_material);
   EXPECT_EQ(s.side, d.side);
+  EXPECT_TRUE(s.motion.joint_travel_mm.isApprox(d.motion.joint_travel_mm));
+}
+
+// joint_travel_mm moves the whole knee through the view at constant velocity, from minus half
+// the travel at the first frame to plus half at the last, in the first view's camera frame
+// (x right, y down, z along the beam), for a left knee as for a right one; the joint itself is
+// the same, and the tibia's projection moves across the image.
+TEST(TrialSimulator, JointTravelMovesTheKneeThroughTheView) {
+  TempDir dir;
+  test_support::writeText(dir.file("travel.yaml"),
+                          "motion: {frames: 5, joint_travel_mm: [120, -40, 20]}\n");
+  sim::TrialSimulatorSettings travelling = sim::loadSimulatorSettings(dir.file("travel.yaml"));
+  sim::TrialSimulatorSettings still = travelling;
+  still.motion.joint_travel_mm.setZero();
+  for (const kinematics::Side side : {kinematics::Side::kRight, kinematics::Side::kLeft}) {
+    travelling.side = still.side = side;
+    const sim::TrialSimulator moving(travelling);
+    const sim::TrialSimulator fixed(still);
+    const Eigen::Vector3d travel(0.12, -0.04, 0.02);
+    for (int f = 0; f < 5; ++f) {
+      const sim::SimulatedFrame a = moving.truth(f);
+      const sim::SimulatedFrame b = fixed.truth(f);
+      const Eigen::Vector3d expected = (f / 4.0 - 0.5) * travel;
+      EXPECT_TRUE((a.tibia.translation() - b.tibia.translation()).isApprox(expected, 1e-12)) << f;
+      EXPECT_TRUE((a.femur.translation() - b.femur.translation()).isApprox(expected, 1e-12)) << f;
+      EXPECT_TRUE(a.tibia.linear().isApprox(b.tibia.linear(), 1e-12));
+      EXPECT_TRUE((a.tibia.inverse() * a.femur).isApprox(b.tibia.inverse() * b.femur, 1e-12));
+    }
+  }
+  test_support::writeText(dir.file("bad.yaml"), "motion: {joint_travel_mm: [1, 2]}\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("bad.yaml")), "joint_travel_mm");
 }
 
 // A left knee is the right one mirrored: the same clinical knee coordinates frame by frame,
