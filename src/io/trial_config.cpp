@@ -251,6 +251,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "tracking_inner_edge_margin_px",
                      "tracking_retry_min_inlier_gain",
                      "tracking_retry_max_inlier_loss",
+                     "tracking_shift_search_mm",
                      "tracking_prediction",
                      "solver_iterations",
                      "contour_spacing_px",
@@ -317,6 +318,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("tracking_inner_edge_margin_px", &r.tracking_inner_edge_margin_px);
   section.read("tracking_retry_min_inlier_gain", &r.tracking_retry_min_inlier_gain);
   section.read("tracking_retry_max_inlier_loss", &r.tracking_retry_max_inlier_loss);
+  section.read("tracking_shift_search_mm", &r.tracking_shift_search_mm);
   std::string tracking_prediction = registration::trackingPredictionName(r.tracking_prediction);
   section.read("tracking_prediction", &tracking_prediction);
   section.read("solver_iterations", &r.solver_iterations);

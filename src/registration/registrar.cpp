@@ -775,6 +775,9 @@ void RegistrationSettings::validate() const {
         "registration: tracking_retry_inlier_drop must be in [0, 1] and "
         "tracking_retry_min_inlier_gain >= 0");
   }
+  if (!(tracking_shift_search_mm >= 0.0) || !std::isfinite(tracking_shift_search_mm)) {
+    throw InputError("registration: tracking_shift_search_mm must be finite and >= 0");
+  }
   if (!(tracking_retry_max_inlier_loss >= 0.0 && tracking_retry_max_inlier_loss <= 1.0)) {
     throw InputError("registration: tracking_retry_max_inlier_loss must be in [0, 1]");
   }

@@ -10,6 +10,7 @@
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/median.h"
 #include "fluoro_tracker/parallel_for.h"
+#include "fluoro_tracker/registration/image_shift_search.h"
 #include "fluoro_tracker/registration/motion_prediction.h"
 
 namespace fluoro_tracker {
@@ -356,6 +357,21 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
       if (more_doubt && best_rank.first == 0) break;
     }
     frame.status = classifyBones(frame.result, quality);
+  }
+  const double shift_search_m = 1e-3 * registrar_->settings().tracking_shift_search_mm;
+  if (poses_registered_ && shift_search_m > 0.0 &&
+      std::find(frame.status.begin(), frame.status.end(), "lost") != frame.status.end()) {
+    // The start may have missed a knee that travelled across the view (see
+    // RegistrationSettings::tracking_shift_search_mm).
+    const auto shifted = posesShiftedToEdges(registrar_->bones(), guess, views.front(),
+                                             registrar_->settings().edges, shift_search_m);
+    if (shifted) {
+      RegistrationResult retry = registrar_->solve(views, *shifted, loaded, priors);
+      if (resultRank(retry, quality) < resultRank(frame.result, quality)) {
+        frame.result = std::move(retry);
+        frame.status = classifyBones(frame.result, quality);
+      }
+    }
   }
   frame.solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

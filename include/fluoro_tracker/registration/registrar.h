@@ -293,6 +293,16 @@ struct RegistrationSettings {
   // anterior axis for 10 frames, every status ok. Measured on 148 tracked trials from frame 0's
   // pose and 79 from no guess (README "Registration"): no frame lost, 15 won.
   double tracking_retry_max_inlier_loss = 0.05;
+  // A tracked frame that leaves a bone lost (after the retries above) is registered once more,
+  // with the full schedule, from the tracker's start moved across the first view by where the
+  // bones' contours best meet the frame's edges, up to this far (mm, at the bones' depth; 0:
+  // off; see posesShiftedToEdges), and the better result (resultRank) is kept. Why: a knee that
+  // travels through a fixed fluoroscope (a step-up, stair descent) moves 10-20 mm between frames
+  // at 30 Hz, beyond what a registration from the last frame's poses captures, and on a trial's
+  // second frame, or after a lost frame, there is no velocity to predict it from. Simulated
+  // (motion: joint_travel_mm 300 mm across the view in 20 frames, 16 mm per frame): 1/20 frames
+  // within the criteria without it (the knee lost from frame 1 on), see README "Tracking quality".
+  double tracking_shift_search_mm = 60.0;
   // inner_edge_margin_px for a tracked frame registered from the previous frame's result (the
   // frames above) and for its retries. Such a frame starts within a pixel or two of its outlines,
   // where a bone's own inner edges only mislead it (a titanium tray's rim and pocket). From a

@@ -584,3 +584,36 @@ TEST(Tracker, OutlineBesideClippedGreyKeepsASaturatedWindowOnTrack) {
     EXPECT_LT(run.femur_depth_mm, 5.0);
   }
 }
+
+// A knee that travels through a fixed fluoroscope, as in a step-up or stair descent: 300 mm
+// across the view in 20 frames, 16 mm between frames, from the trial's first frame on (no
+// velocity to predict from). A registration from the last frame's poses does not capture that;
+// the shift search (RegistrationSettings::tracking_shift_search_mm) moves the start across the
+// view to where the bones' contours meet the frame's edges.
+TEST(Tracker, FollowsAKneeThatTravelsAcrossTheViewBeyondTheRegistrationsReach) {
+  sim::TrialSimulatorSettings travelling;
+  travelling.motion.frames = 20;
+  travelling.motion.max_flexion_deg = 60.0;
+  travelling.motion.joint_travel_mm = Eigen::Vector3d(300.0, 0.0, 0.0);
+  const VariantFrames trial(travelling, 6);
+  for (const double reach_mm :
+       {0.0, registration::RegistrationSettings().tracking_shift_search_mm}) {
+    SCOPED_TRACE(reach_mm);
+    registration::RegistrationSettings settings;
+    settings.tracking_shift_search_mm = reach_mm;
+    const auto errors = trial.trackedErrors(settings);
+    int off = 0;  // frames 1-6
+    for (std::size_t f = 1; f < errors.size(); ++f) {
+      if (!registration::meetsSuccessCriterion(errors[f][0]) ||
+          !registration::meetsSuccessCriterion(errors[f][1])) {
+        ++off;
+      }
+    }
+    if (reach_mm > 0.0) {
+      EXPECT_EQ(off, 0);
+    } else {
+      EXPECT_GE(off, 5)
+          << "the registration alone now follows the knee: the test needs more travel";
+    }
+  }
+}
