@@ -301,7 +301,7 @@ struct RegistrationSettings {
   // at 30 Hz, beyond what a registration from the last frame's poses captures, and on a trial's
   // second frame, or after a lost frame, there is no velocity to predict it from. Simulated
   // (motion: joint_travel_mm 300 mm across the view in 20 frames, 16 mm per frame): 1/20 frames
-  // within the criteria without it (the knee lost from frame 1 on), see README "Tracking quality".
+  // within the criteria without it (the knee lost from frame 1 on), see README "Registration".
   double tracking_shift_search_mm = 60.0;
   // inner_edge_margin_px for a tracked frame registered from the previous frame's result (the
   // frames above) and for its retries. Such a frame starts within a pixel or two of its outlines,
