@@ -359,11 +359,10 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
     frame.status = classifyBones(frame.result, quality);
   }
   const double shift_search_m = 1e-3 * registrar_->settings().tracking_shift_search_mm;
-  if (poses_registered_ && shift_search_m > 0.0 &&
-      std::find(frame.status.begin(), frame.status.end(), "lost") != frame.status.end()) {
-    // The start may have missed a knee that travelled across the view (see
+  if (poses_registered_ && shift_search_m > 0.0 && statusTrouble(frame.status) > 0) {
+    // The start may have missed a knee that travelled across the views (see
     // RegistrationSettings::tracking_shift_search_mm).
-    const auto shifted = posesShiftedToEdges(registrar_->bones(), guess, views.front(),
+    const auto shifted = posesShiftedToEdges(registrar_->bones(), guess, views,
                                              registrar_->settings().edges, shift_search_m);
     if (shifted) {
       RegistrationResult retry = registrar_->solve(views, *shifted, loaded, priors);

@@ -11,17 +11,30 @@ using namespace fluoro_tracker;
 
 namespace {
 
+sim::TrialSimulatorSettings withViews(int views) {
+  sim::TrialSimulatorSettings settings;
+  settings.views = views;
+  return settings;
+}
+
 struct TravelledFrame {
   sim::TrialSimulator simulator;
   sim::SimulatedFrame frame;
   std::vector<registration::BoneModel> bones;
 
-  TravelledFrame() : simulator(sim::TrialSimulatorSettings()) {
+  explicit TravelledFrame(int views = 1) : simulator(withViews(views)) {
     std::mt19937_64 rng(3);
     frame = simulator.render(20, &rng);
     bones = test_support::simulatedKneeBones(simulator);
   }
   const geometry::XrayCamera& camera() const { return simulator.views()[0].camera; }
+  std::vector<registration::ViewImage> views() const {
+    std::vector<registration::ViewImage> out;
+    for (std::size_t v = 0; v < frame.images.size(); ++v) {
+      out.push_back({frame.images[v], simulator.views()[v].camera});
+    }
+    return out;
+  }
   // Both bones' true poses moved by `step` (m) in the view's camera frame.
   std::vector<geometry::Pose> moved(const Eigen::Vector3d& step) const {
     const geometry::Pose world_from_camera = camera().worldFromCamera();
@@ -39,7 +52,7 @@ TEST(ImageShiftSearch, MovesTheBonesBackOntoTheirOutlines) {
   const TravelledFrame t;
   const auto shifted =
       registration::posesShiftedToEdges(t.bones, t.moved(Eigen::Vector3d(0.018, -0.009, 0.0)),
-                                        {t.frame.images[0], t.camera()}, {}, 0.06);
+                                        {{t.frame.images[0], t.camera()}}, {}, 0.06);
   ASSERT_TRUE(shifted.has_value());
   const geometry::Pose camera_from_fixed = t.camera().worldFromCamera().inverse();
   const std::vector<geometry::Pose> truth = {t.frame.femur, t.frame.tibia};
@@ -57,7 +70,7 @@ TEST(ImageShiftSearch, MovesTheBonesBackOntoTheirOutlines) {
 // From where the knee is, or with a reach too short to get there, nothing moves.
 TEST(ImageShiftSearch, LeavesBonesThatAreOnTheirOutlinesOrOutOfReach) {
   const TravelledFrame t;
-  const registration::ViewImage view{t.frame.images[0], t.camera()};
+  const std::vector<registration::ViewImage> view = {{t.frame.images[0], t.camera()}};
   EXPECT_FALSE(
       registration::posesShiftedToEdges(t.bones, t.moved(Eigen::Vector3d::Zero()), view, {}, 0.06)
           .has_value());
@@ -73,6 +86,22 @@ TEST(ImageShiftSearch, LeavesBonesThatAreOnTheirOutlinesOrOutOfReach) {
   }
   const cv::Mat blank(t.frame.images[0].size(), t.frame.images[0].type(), cv::Scalar(128));
   EXPECT_FALSE(registration::posesShiftedToEdges(t.bones, t.moved(Eigen::Vector3d(0.018, 0.0, 0.0)),
-                                                 {blank, t.camera()}, {}, 0.06)
+                                                 {{blank, t.camera()}}, {}, 0.06)
                    .has_value());
+}
+
+// Two views see the knee's translation along each other's beams: their shifts give all three
+// components, here of a knee 18 mm, 9 mm and 12 mm off along the lab's axes.
+TEST(ImageShiftSearch, TwoViewsGiveTheTranslationAlongTheBeamToo) {
+  const TravelledFrame t(2);
+  const Eigen::Vector3d off(0.018, -0.009, 0.012);
+  std::vector<geometry::Pose> started = {t.frame.femur, t.frame.tibia};
+  for (auto& pose : started) pose.translation() += off;
+  const auto shifted = registration::posesShiftedToEdges(t.bones, started, t.views(), {}, 0.06);
+  ASSERT_TRUE(shifted.has_value());
+  const std::vector<geometry::Pose> truth = {t.frame.femur, t.frame.tibia};
+  for (int b = 0; b < 2; ++b) {
+    EXPECT_LT(1e3 * ((*shifted)[b].translation() - truth[b].translation()).norm(), 2.0) << b;
+    EXPECT_TRUE((*shifted)[b].linear().isApprox(truth[b].linear(), 1e-12)) << b;
+  }
 }
