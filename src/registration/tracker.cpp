@@ -359,8 +359,9 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
     frame.status = classifyBones(frame.result, quality);
   }
   const double shift_search_m = 1e-3 * registrar_->settings().tracking_shift_search_mm;
-  if (poses_registered_ && shift_search_m > 0.0 && statusTrouble(frame.status) > 0) {
-    // The start may have missed a knee that travelled across the views (see
+  if (shift_search_m > 0.0 && statusTrouble(frame.status) > 0) {
+    // The start may have missed a knee that travelled across the views, or the poses the user
+    // gave may be off by more than a registration captures (see
     // RegistrationSettings::tracking_shift_search_mm).
     const auto shifted = posesShiftedToEdges(registrar_->bones(), guess, views,
                                              registrar_->settings().edges, shift_search_m);

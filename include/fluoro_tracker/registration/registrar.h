@@ -293,7 +293,8 @@ struct RegistrationSettings {
   // anterior axis for 10 frames, every status ok. Measured on 148 tracked trials from frame 0's
   // pose and 79 from no guess (README "Registration"): no frame lost, 15 won.
   double tracking_retry_max_inlier_loss = 0.05;
-  // A tracked frame that leaves a bone suspect or lost (after the retries above) is registered
+  // A tracked frame that leaves a bone suspect or lost (after the retries above; also the first
+  // frame, from poses the user gave) is registered
   // once more, with the full schedule, from the tracker's start moved across the views by where
   // the bones' contours best meet the frame's edges, up to this far (mm, at the bones' depth; 0:
   // off; see posesShiftedToEdges), and the better result (resultRank) is kept. Why: a knee that

@@ -617,3 +617,28 @@ TEST(Tracker, FollowsAKneeThatTravelsAcrossTheViewBeyondTheRegistrationsReach) {
     }
   }
 }
+
+// Poses the user gave (the first frame, reinitialize) 25 mm off across the view, e.g. copied from
+// another trial of the same knee: the shift search finds the knee in that very frame.
+TEST(Tracker, FindsTheKneeWherePosesTheUserGaveAreOffAcrossTheView) {
+  const VariantFrames trial(sim::TrialSimulatorSettings(), 0);
+  const Pose world_from_camera = trial.camera().worldFromCamera();
+  const Pose off =
+      world_from_camera * Eigen::Translation3d(0.025, 0.0, 0.0) * world_from_camera.inverse();
+  for (const double reach_mm :
+       {0.0, registration::RegistrationSettings().tracking_shift_search_mm}) {
+    SCOPED_TRACE(reach_mm);
+    registration::RegistrationSettings settings;
+    settings.tracking_shift_search_mm = reach_mm;
+    registration::Tracker tracker(test_support::simulatedKneeRegistrar(trial.simulator, settings),
+                                  {off * trial.frames[0].femur, off * trial.frames[0].tibia});
+    const registration::TrackedFrame tracked =
+        tracker.track({{trial.frames[0].images[0], trial.camera()}});
+    const bool found = registration::meetsSuccessCriterion(registration::poseError(
+                           tracked.poses[0], trial.frames[0].femur, trial.cameraFromFixed())) &&
+                       registration::meetsSuccessCriterion(registration::poseError(
+                           tracked.poses[1], trial.frames[0].tibia, trial.cameraFromFixed()));
+    EXPECT_EQ(found, reach_mm > 0.0);
+    EXPECT_EQ(tracked.status[0] == "ok" && tracked.status[1] == "ok", reach_mm > 0.0);
+  }
+}
