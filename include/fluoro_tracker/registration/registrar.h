@@ -294,10 +294,10 @@ struct RegistrationSettings {
   // pose and 79 from no guess (README "Registration"): no frame lost, 15 won.
   double tracking_retry_max_inlier_loss = 0.05;
   // A tracked frame that leaves a bone suspect or lost (after the retries above; also the first
-  // frame, from poses the user gave) is registered
-  // once more, with the full schedule, from the tracker's start moved across the views by where
-  // the bones' contours best meet the frame's edges, up to this far (mm, at the bones' depth; 0:
-  // off; see posesShiftedToEdges), and the better result (resultRank) is kept. Why: a knee that
+  // frame, from poses the user gave) is registered once more, with the full schedule, from the
+  // tracker's start moved across the views by where the bones' contours best meet the frame's
+  // edges, up to this far (mm, at the bones' depth; 0: off; see posesShiftedToEdges), and the
+  // better result (resultRank) is kept. Why: a knee that
   // travels through a fixed fluoroscope (a step-up, stair descent) moves 10-20 mm between frames
   // at 30 Hz, beyond what a registration from the last frame's poses captures, and on a trial's
   // second frame, or after a lost frame, there is no velocity to predict it from. Simulated
