@@ -150,7 +150,7 @@ TEST(TrialSimulator, ShippedConfigLoadsAndStatesTheDefaults) {
 // joint_travel_mm moves the whole knee through the view at constant velocity, from minus half
 // the travel at the first frame to plus half at the last, in the first view's camera frame
 // (x right, y down, z along the beam), for a left knee as for a right one; the joint itself is
-// the same, and the tibia's projection moves across the image.
+// the same.
 TEST(TrialSimulator, JointTravelMovesTheKneeThroughTheView) {
   TempDir dir;
   test_support::writeText(dir.file("travel.yaml"),
