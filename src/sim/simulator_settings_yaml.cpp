@@ -39,6 +39,7 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
                "seed",
                "start_stamp_s",
                "side",
+               "contralateral_knee",
                "lens_distortion",
                "motion",
                "detector",
@@ -76,6 +77,29 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
     throw InputError("simulator settings '" + path + "'.side: " + e.what());
   }
 
+  const auto read_vector = [&path](const io::YamlSection& section, const std::string& key,
+                                   const std::string& where, Eigen::Vector3d* value) {
+    std::vector<double> xyz = {value->x(), value->y(), value->z()};
+    section.read(key, &xyz);
+    if (xyz.size() != 3) {
+      throw InputError("simulator settings '" + path + "'." + where + key + " must be [x, y, z]");
+    }
+    *value = Eigen::Vector3d(xyz[0], xyz[1], xyz[2]);
+  };
+
+  const io::YamlSection other = r.child("contralateral_knee");
+  other.allowOnly({"kind", "offset_mm", "travel_mm", "phase"});
+  std::string kind = "none";
+  other.read("kind", &kind);
+  try {
+    s.contralateral_knee.kind = contralateralKindFromName(kind);
+  } catch (const InputError& e) {
+    throw InputError("simulator settings '" + path + "'.contralateral_knee.kind: " + e.what());
+  }
+  read_vector(other, "offset_mm", "contralateral_knee.", &s.contralateral_knee.offset_mm);
+  read_vector(other, "travel_mm", "contralateral_knee.", &s.contralateral_knee.travel_mm);
+  other.read("phase", &s.contralateral_knee.phase);
+
   const io::YamlSection lens = r.child("lens_distortion");
   lens.allowOnly({"model", "coefficients"});
   lens.read("model", &s.lens_distortion.model);
@@ -93,13 +117,7 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
   m.read("rollback_at_max_mm", &s.motion.rollback_at_max_mm);
   m.read("adduction_amplitude_deg", &s.motion.adduction_amplitude_deg);
   m.read("shank_inclination_ratio", &s.motion.shank_inclination_ratio);
-  std::vector<double> travel = {s.motion.joint_travel_mm.x(), s.motion.joint_travel_mm.y(),
-                                s.motion.joint_travel_mm.z()};
-  m.read("joint_travel_mm", &travel);
-  if (travel.size() != 3) {
-    throw InputError("simulator settings '" + path + "'.motion.joint_travel_mm must be [x, y, z]");
-  }
-  s.motion.joint_travel_mm = Eigen::Vector3d(travel[0], travel[1], travel[2]);
+  read_vector(m, "joint_travel_mm", "motion.", &s.motion.joint_travel_mm);
 
   const io::YamlSection d = r.child("detector");
   d.allowOnly({"photons_per_pixel", "blur_sigma_px", "scatter_strength", "scatter_sigma_mm",

@@ -46,7 +46,25 @@ Pose leftFromRight(const Pose& right) {
                             across_image * right.translation());
 }
 
+kinematics::Side otherSide(kinematics::Side side) {
+  return side == kinematics::Side::kRight ? kinematics::Side::kLeft : kinematics::Side::kRight;
+}
+
 }  // namespace
+
+void ContralateralKnee::validate() const {
+  if (!offset_mm.allFinite() || !travel_mm.allFinite() || !std::isfinite(phase)) {
+    throw InputError(
+        "simulator: contralateral_knee: offset_mm, travel_mm and phase must be finite");
+  }
+}
+
+ContralateralKnee::Kind contralateralKindFromName(const std::string& name) {
+  if (name == "none") return ContralateralKnee::Kind::kNone;
+  if (name == "natural") return ContralateralKnee::Kind::kNatural;
+  if (name == "implanted") return ContralateralKnee::Kind::kImplanted;
+  throw InputError("contralateral_knee kind '" + name + "' is not one of none, natural, implanted");
+}
 
 TrialSimulatorSettings::TrialSimulatorSettings() {
   // Image-intensifier look: a round field whose corners are collimated off.
@@ -105,6 +123,7 @@ void TrialSimulatorSettings::validate() const {
     }
   }
   lens_distortion.validate("simulator: lens_distortion");
+  contralateral_knee.validate();
   motion.validate();
   detector.validate();
 }
@@ -113,6 +132,9 @@ TrialSimulator::TrialSimulator(const TrialSimulatorSettings& settings)
     : settings_(settings),
       right_implants_(makeKneeImplants(settings.implants, settings.implant_meshes)),
       implants_(implantsForSide(right_implants_, settings.side)),
+      contralateral_implants_(settings.contralateral_knee.kind != ContralateralKnee::Kind::kNone
+                                  ? implantsForSide(right_implants_, otherSide(settings.side))
+                                  : KneeImplantSet{}),
       contact_(right_implants_, settings.implants) {
   settings_.detector.pixel_spacing_mm = settings_.pixel_spacing_mm;
   settings_.validate();
@@ -218,11 +240,7 @@ void TrialSimulator::placeLabObjects() {
   }
 }
 
-SimulatedFrame TrialSimulator::truth(int index) const {
-  if (index < 0 || index >= frameCount()) {
-    throw InputError("simulator: frame " + std::to_string(index) + " is outside 0.." +
-                     std::to_string(frameCount() - 1));
-  }
+TrialSimulator::BonePoses TrialSimulator::kneeBonesAt(int index) const {
   const KneeFramePose knee = kneePoseAt(settings_.motion, index, contact_);
   // Lateral view of the tibia: anterior to the image left, superior up, the beam along the
   // medial-lateral axis; the shank inclines as the knee flexes, and the beam is a few degrees
@@ -234,18 +252,57 @@ SimulatedFrame TrialSimulator::truth(int index) const {
       geometry::rotationX(geometry::degToRad(settings_.view_roll_deg)) * lateral *
       geometry::rotationZ(geometry::degToRad(knee.shank_inclination_deg));
   const Eigen::Vector3d joint(0.0, 0.0, 1e-3 * settings_.source_to_joint_mm);
-  SimulatedFrame frame;
-  frame.index = index;
-  frame.stamp_s = settings_.start_stamp_s + index / settings_.motion.frame_rate_hz;
-  frame.flexion_deg = knee.flexion_deg;
-  frame.tibia = geometry::makePose(rotation, joint - rotation * kJointCentreInTibia);
-  frame.femur = frame.tibia * knee.tibia_from_femur;
+  BonePoses bones;
+  bones.flexion_deg = knee.flexion_deg;
+  bones.tibia = geometry::makePose(rotation, joint - rotation * kJointCentreInTibia);
+  bones.femur = bones.tibia * knee.tibia_from_femur;
   if (settings_.side == kinematics::Side::kLeft) {
     const Pose fixed_from_camera = views_.front().camera.worldFromCamera();
     const Pose camera_from_fixed = fixed_from_camera.inverse();
-    frame.tibia = fixed_from_camera * leftFromRight(camera_from_fixed * frame.tibia);
-    frame.femur = fixed_from_camera * leftFromRight(camera_from_fixed * frame.femur);
+    bones.tibia = fixed_from_camera * leftFromRight(camera_from_fixed * bones.tibia);
+    bones.femur = fixed_from_camera * leftFromRight(camera_from_fixed * bones.femur);
   }
+  return bones;
+}
+
+TrialSimulator::BonePoses TrialSimulator::contralateralBonesAt(int index) const {
+  const ContralateralKnee& other = settings_.contralateral_knee;
+  const int n = frameCount();
+  const long ahead = std::lround(other.phase * n);
+  const int cycle_index = static_cast<int>(((index + ahead) % n + n) % n);
+  const BonePoses tracked = kneeBonesAt(cycle_index);
+  // Mirrored through the plane across the first beam at the joint: the far leg, facing the
+  // same way. Reflecting the scene and the mesh (its sagittal plane) makes a rotation.
+  const Eigen::Matrix3d across_beam = Eigen::Vector3d(1.0, 1.0, -1.0).asDiagonal();
+  const Eigen::Matrix3d sagittal = Eigen::Vector3d(1.0, 1.0, -1.0).asDiagonal();
+  const Eigen::Vector3d joint(0.0, 0.0, 1e-3 * settings_.source_to_joint_mm);
+  const double progress = n > 1 ? static_cast<double>(index) / (n - 1) - 0.5 : 0.0;
+  const Eigen::Vector3d shift = 1e-3 * (other.offset_mm + progress * other.travel_mm) +
+                                jointTravelAt(settings_.motion, index);
+  const Pose fixed_from_camera = views_.front().camera.worldFromCamera();
+  const Pose camera_from_fixed = fixed_from_camera.inverse();
+  const auto mirrored = [&](const Pose& fixed_from_bone) {
+    const Pose camera_from_bone = camera_from_fixed * fixed_from_bone;
+    return fixed_from_camera *
+           geometry::makePose(
+               across_beam * camera_from_bone.linear() * sagittal,
+               across_beam * (camera_from_bone.translation() - joint) + joint + shift);
+  };
+  return {mirrored(tracked.femur), mirrored(tracked.tibia), tracked.flexion_deg};
+}
+
+SimulatedFrame TrialSimulator::truth(int index) const {
+  if (index < 0 || index >= frameCount()) {
+    throw InputError("simulator: frame " + std::to_string(index) + " is outside 0.." +
+                     std::to_string(frameCount() - 1));
+  }
+  const BonePoses bones = kneeBonesAt(index);
+  SimulatedFrame frame;
+  frame.index = index;
+  frame.stamp_s = settings_.start_stamp_s + index / settings_.motion.frame_rate_hz;
+  frame.flexion_deg = bones.flexion_deg;
+  frame.tibia = bones.tibia;
+  frame.femur = bones.femur;
   const Eigen::Vector3d travel = jointTravelAt(settings_.motion, index);
   if (!travel.isZero()) {
     const Pose fixed_from_camera = views_.front().camera.worldFromCamera();
@@ -274,6 +331,30 @@ cv::Mat TrialSimulator::lineIntegral(int index, int view) const {
   for (const auto& part : anatomy_) {
     objects.push_back({&part.mesh, part.on_femur ? camera_from_femur : camera_from_tibia,
                        part.attenuation_per_mm});
+  }
+  const ContralateralKnee::Kind other = settings_.contralateral_knee.kind;
+  if (other != ContralateralKnee::Kind::kNone) {
+    const BonePoses bones = contralateralBonesAt(index);
+    const Pose camera_from_other_femur = camera_from_fixed * bones.femur;
+    const Pose camera_from_other_tibia = camera_from_fixed * bones.tibia;
+    if (other == ContralateralKnee::Kind::kImplanted) {
+      objects.push_back({&contralateral_implants_.femoral_component, camera_from_other_femur,
+                         imaging::materialByName(settings_.femoral_material).attenuation_per_mm});
+      objects.push_back({&contralateral_implants_.tibial_tray, camera_from_other_tibia,
+                         imaging::materialByName(settings_.tray_material).attenuation_per_mm});
+      objects.push_back({&contralateral_implants_.tibial_insert, camera_from_other_tibia,
+                         imaging::materialByName(settings_.insert_material).attenuation_per_mm});
+    } else {
+      // The natural condyles: the femoral component's shape, filled with cancellous bone.
+      objects.push_back({&contralateral_implants_.femoral_component, camera_from_other_femur,
+                         imaging::materialByName("cancellous_bone").attenuation_per_mm});
+    }
+    // The anatomy's parts are symmetric about their sagittal plane: the same meshes serve.
+    for (const auto& part : anatomy_) {
+      objects.push_back({&part.mesh,
+                         part.on_femur ? camera_from_other_femur : camera_from_other_tibia,
+                         part.attenuation_per_mm});
+    }
   }
   for (const LabObject& object : lab_objects_) {
     objects.push_back({&object.mesh, camera_from_fixed * object.pose, object.attenuation_per_mm});

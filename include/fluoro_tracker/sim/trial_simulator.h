@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include "fluoro_tracker/geometry/mesh.h"
@@ -20,6 +21,31 @@
 
 namespace fluoro_tracker {
 namespace sim {
+
+// The other knee in the field, as a lateral view of gait or a step-up shows the far leg passing
+// the tracked one: the tracked knee's mirror image through the body's sagittal plane (across the
+// first view's beam, so both face the same way in the image), its flexion cycle `phase` of a
+// cycle ahead, its joint centre `offset_mm` from the tracked one's (first view's camera frame;
+// z < 0 nearer the source, magnified more) and moving `travel_mm` relative to it over the trial
+// (from minus half at the first frame to plus half at the last), on top of the tracked knee's
+// own travel. Only rendered: the trial's truth, models and YAML are the tracked knee's.
+struct ContralateralKnee {
+  enum class Kind {
+    kNone,
+    kNatural,    // bone only: its condyles (the femoral component's shape in cancellous bone),
+                 // plateau, shafts and soft tissue
+    kImplanted,  // a bilateral total knee: the same components, mirrored
+  };
+  Kind kind = Kind::kNone;
+  Eigen::Vector3d offset_mm = Eigen::Vector3d(0.0, 0.0, -180.0);
+  Eigen::Vector3d travel_mm = Eigen::Vector3d(-250.0, 0.0, 0.0);
+  double phase = 0.5;
+
+  void validate() const;
+};
+
+// "none", "natural", "implanted"; throws InputError naming the accepted values.
+ContralateralKnee::Kind contralateralKindFromName(const std::string& name);
 
 struct TrialSimulatorSettings {
   int image_width = 1024;
@@ -57,6 +83,7 @@ struct TrialSimulatorSettings {
   // their sagittal plane, the same clinical motion), seen from the other side: with the beam
   // still along medial-lateral, anterior points to the image right instead of the left.
   kinematics::Side side = kinematics::Side::kRight;
+  ContralateralKnee contralateral_knee;
   // An image intensifier's distortion left in the frames (and written to camera_info), e.g.
   // {plumb_bob, [k1, 0, 0, 0, 0]}; none by default.
   imaging::LensDistortion lens_distortion;
@@ -130,11 +157,23 @@ class TrialSimulator {
     double attenuation_per_mm;
   };
 
+  struct BonePoses {
+    geometry::Pose femur;
+    geometry::Pose tibia;
+    double flexion_deg = 0.0;
+  };
+  // The tracked knee's bones at frame `index` in the fixed frame, before the joint's travel.
+  BonePoses kneeBonesAt(int index) const;
+  // The contralateral knee's bones at frame `index` in the fixed frame (see ContralateralKnee).
+  BonePoses contralateralBonesAt(int index) const;
+
   TrialSimulatorSettings settings_;
   // The motion and the contact that settles it are modelled on a right knee; a left trial
   // renders and hands out the mirror images (implants_).
   KneeImplantSet right_implants_;
   KneeImplantSet implants_;
+  // The other side's components, for a contralateral knee.
+  KneeImplantSet contralateral_implants_;
   KneeContactSolver contact_;
   std::vector<AnatomyPart> anatomy_;
   // Objects fixed in the lab (rod, marker grid, platform): mesh, pose in the fixed frame.

@@ -145,6 +145,10 @@ TEST(TrialSimulator, ShippedConfigLoadsAndStatesTheDefaults) {
   EXPECT_EQ(s.platform_material, d.platform_material);
   EXPECT_EQ(s.side, d.side);
   EXPECT_TRUE(s.motion.joint_travel_mm.isApprox(d.motion.joint_travel_mm));
+  EXPECT_EQ(s.contralateral_knee.kind, d.contralateral_knee.kind);
+  EXPECT_TRUE(s.contralateral_knee.offset_mm.isApprox(d.contralateral_knee.offset_mm));
+  EXPECT_TRUE(s.contralateral_knee.travel_mm.isApprox(d.contralateral_knee.travel_mm));
+  EXPECT_DOUBLE_EQ(s.contralateral_knee.phase, d.contralateral_knee.phase);
 }
 
 // joint_travel_mm moves the whole knee through the view at constant velocity, from minus half
@@ -175,6 +179,64 @@ TEST(TrialSimulator, JointTravelMovesTheKneeThroughTheView) {
   }
   test_support::writeText(dir.file("bad.yaml"), "motion: {joint_travel_mm: [1, 2]}\n");
   EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("bad.yaml")), "joint_travel_mm");
+}
+
+// The other knee (the far leg of a gait or step-up seen laterally) is only rendered: the trial's
+// truth stays the tracked knee's. It passes across the view with its travel (from the image's
+// right to its left by default), adds attenuation and removes none, and carries metal only when
+// implanted.
+TEST(TrialSimulator, ContralateralKneePassesAcrossTheViewWithoutMovingTheTrackedOne) {
+  const sim::TrialSimulatorSettings plain = smallTrial(1);
+  sim::TrialSimulatorSettings natural = plain;
+  natural.contralateral_knee.kind = sim::ContralateralKnee::Kind::kNatural;
+  sim::TrialSimulatorSettings implanted = plain;
+  implanted.contralateral_knee.kind = sim::ContralateralKnee::Kind::kImplanted;
+  const sim::TrialSimulator alone(plain);
+  const sim::TrialSimulator with_bone(natural);
+  const sim::TrialSimulator with_metal(implanted);
+  const double centre_x = 0.5 * (plain.image_width - 1);
+  for (const int f : {0, 4}) {
+    EXPECT_TRUE(with_metal.truth(f).tibia.isApprox(alone.truth(f).tibia, 1e-15)) << f;
+    EXPECT_TRUE(with_metal.truth(f).femur.isApprox(alone.truth(f).femur, 1e-15)) << f;
+    const cv::Mat base = alone.lineIntegral(f, 0);
+    const cv::Mat bone = with_bone.lineIntegral(f, 0) - base;
+    const cv::Mat metal = with_metal.lineIntegral(f, 0) - with_bone.lineIntegral(f, 0);
+    double lowest = 0.0;
+    cv::minMaxLoc(bone, &lowest);
+    EXPECT_GT(lowest, -1e-6) << f;
+    EXPECT_GT(cv::countNonZero(bone > 0.5), 0.05 * bone.total()) << f;  // a leg across the view
+    double deepest = 0.0;
+    cv::minMaxLoc(metal, nullptr, &deepest);
+    EXPECT_GT(deepest, 5.0) << f;  // centimetres of implant metal seen edge-on
+    // Where the other knee's metal lies across the image: right of the centre at the first
+    // frame, left of it at the last (travel_mm -250 mm across, magnified about 1.46x).
+    const cv::Moments m = cv::moments(cv::Mat(metal > 1.0), true);
+    ASSERT_GT(m.m00, 0.0) << f;
+    const double metal_x = m.m10 / m.m00 - centre_x;
+    if (f == 0) {
+      EXPECT_GT(metal_x, 150.0);
+    } else {
+      EXPECT_LT(metal_x, -150.0);
+    }
+  }
+
+  TempDir dir;
+  test_support::writeText(dir.file("other.yaml"),
+                          "contralateral_knee: {kind: implanted, offset_mm: [10, 20, -200], "
+                          "travel_mm: [100, 0, 5], phase: 0.25}\n");
+  const sim::ContralateralKnee read =
+      sim::loadSimulatorSettings(dir.file("other.yaml")).contralateral_knee;
+  EXPECT_EQ(read.kind, sim::ContralateralKnee::Kind::kImplanted);
+  EXPECT_TRUE(read.offset_mm.isApprox(Eigen::Vector3d(10, 20, -200)));
+  EXPECT_TRUE(read.travel_mm.isApprox(Eigen::Vector3d(100, 0, 5)));
+  EXPECT_DOUBLE_EQ(read.phase, 0.25);
+  test_support::writeText(dir.file("kind.yaml"), "contralateral_knee: {kind: both}\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("kind.yaml")), "none, natural, implanted");
+  test_support::writeText(dir.file("offset.yaml"), "contralateral_knee: {offset_mm: [1, 2]}\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("offset.yaml")), "offset_mm");
+  test_support::writeText(dir.file("phase.yaml"), "contralateral_knee: {phase: .nan}\n");
+  EXPECT_THROW_WITH(sim::TrialSimulator(sim::loadSimulatorSettings(dir.file("phase.yaml"))),
+                    "contralateral_knee");
 }
 
 // A left knee is the right one mirrored: the same clinical knee coordinates frame by frame,
