@@ -19,6 +19,7 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
                "principal_distance_mm",
                "pixel_spacing_mm",
                "source_to_joint_mm",
+               "principal_point_offset_px",
                "views",
                "view_separation_deg",
                "view_yaw_deg",
@@ -86,6 +87,14 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
     }
     *value = Eigen::Vector3d(xyz[0], xyz[1], xyz[2]);
   };
+
+  std::vector<double> principal = {s.principal_point_offset_px.x(),
+                                   s.principal_point_offset_px.y()};
+  r.read("principal_point_offset_px", &principal);
+  if (principal.size() != 2) {
+    throw InputError("simulator settings '" + path + "'.principal_point_offset_px must be [x, y]");
+  }
+  s.principal_point_offset_px = Eigen::Vector2d(principal[0], principal[1]);
 
   const io::YamlSection other = r.child("contralateral_knee");
   other.allowOnly({"kind", "offset_mm", "travel_mm", "phase"});

@@ -89,6 +89,11 @@ void TrialSimulatorSettings::validate() const {
     throw InputError("simulator: source_to_joint_mm must be > 100 and < principal_distance_mm");
   }
   if (views != 1 && views != 2) throw InputError("simulator: views must be 1 or 2");
+  if (!principal_point_offset_px.allFinite() ||
+      std::abs(principal_point_offset_px.x()) >= 0.5 * image_width ||
+      std::abs(principal_point_offset_px.y()) >= 0.5 * image_height) {
+    throw InputError("simulator: principal_point_offset_px must be finite and within the image");
+  }
   for (const auto& m : {femoral_material, tray_material, insert_material, occluder_material,
                         marker_material, platform_material}) {
     imaging::materialByName(m);
@@ -139,8 +144,8 @@ TrialSimulator::TrialSimulator(const TrialSimulatorSettings& settings)
   settings_.detector.pixel_spacing_mm = settings_.pixel_spacing_mm;
   settings_.validate();
   const double focal = settings_.principal_distance_mm / settings_.pixel_spacing_mm;
-  const double cx = 0.5 * (settings_.image_width - 1);
-  const double cy = 0.5 * (settings_.image_height - 1);
+  const double cx = 0.5 * (settings_.image_width - 1) + settings_.principal_point_offset_px.x();
+  const double cy = 0.5 * (settings_.image_height - 1) + settings_.principal_point_offset_px.y();
   const auto view_count = static_cast<std::size_t>(settings_.views);
   fixed_frame_ = io::fixedFrameId(view_count);
   if (view_count == 1) {

@@ -53,6 +53,9 @@ struct TrialSimulatorSettings {
   double principal_distance_mm = 1200.0;  // source to detector
   double pixel_spacing_mm = 0.38;
   double source_to_joint_mm = 1000.0;
+  // Where the beam's central ray meets the detector, from the image's centre (pixels, x right,
+  // y down): real calibrations place it off centre. The knee stays on the central ray.
+  Eigen::Vector2d principal_point_offset_px = Eigen::Vector2d::Zero();
   int views = 1;                      // 1: single plane; 2: bi-plane
   double view_separation_deg = 55.0;  // angle between the two beams (bi-plane)
   double view_yaw_deg = 4.0;          // beam off the pure lateral direction, about vertical

@@ -149,6 +149,7 @@ TEST(TrialSimulator, ShippedConfigLoadsAndStatesTheDefaults) {
   EXPECT_TRUE(s.contralateral_knee.offset_mm.isApprox(d.contralateral_knee.offset_mm));
   EXPECT_TRUE(s.contralateral_knee.travel_mm.isApprox(d.contralateral_knee.travel_mm));
   EXPECT_DOUBLE_EQ(s.contralateral_knee.phase, d.contralateral_knee.phase);
+  EXPECT_TRUE(s.principal_point_offset_px.isApprox(d.principal_point_offset_px));
 }
 
 // joint_travel_mm moves the whole knee through the view at constant velocity, from minus half
@@ -237,6 +238,41 @@ TEST(TrialSimulator, ContralateralKneePassesAcrossTheViewWithoutMovingTheTracked
   test_support::writeText(dir.file("phase.yaml"), "contralateral_knee: {phase: .nan}\n");
   EXPECT_THROW_WITH(sim::TrialSimulator(sim::loadSimulatorSettings(dir.file("phase.yaml"))),
                     "contralateral_knee");
+}
+
+// A calibration's principal point off the image's centre: the camera written for the tracker
+// has it, and the knee, still on the central ray, projects there; out-of-image offsets are
+// refused by name.
+TEST(TrialSimulator, PrincipalPointOffCentreMovesTheCentralRayNotTheKnee) {
+  TempDir dir;
+  test_support::writeText(dir.file("pp.yaml"), "principal_point_offset_px: [40, -25]\n");
+  sim::TrialSimulatorSettings off = sim::loadSimulatorSettings(dir.file("pp.yaml"));
+  off.image_width = off.image_height = 512;
+  off.pixel_spacing_mm = 0.76;
+  off.motion.frames = 3;
+  sim::TrialSimulatorSettings centred = off;
+  centred.principal_point_offset_px.setZero();
+  const sim::TrialSimulator a(off);
+  const sim::TrialSimulator b(centred);
+  const geometry::XrayCamera& camera = a.views().front().camera;
+  EXPECT_DOUBLE_EQ(camera.cx(), 255.5 + 40.0);
+  EXPECT_DOUBLE_EQ(camera.cy(), 255.5 - 25.0);
+  EXPECT_TRUE(a.truth(1).tibia.isApprox(b.truth(1).tibia, 1e-15));
+  // The implants' shadow moves with the central ray's foot.
+  const auto shadow_centre = [](const cv::Mat& line_integral) {
+    const cv::Moments m = cv::moments(cv::Mat(line_integral > 6.0), true);
+    return Eigen::Vector2d(m.m10 / m.m00, m.m01 / m.m00);
+  };
+  const Eigen::Vector2d moved =
+      shadow_centre(a.lineIntegral(1, 0)) - shadow_centre(b.lineIntegral(1, 0));
+  EXPECT_NEAR(moved.x(), 40.0, 0.5);
+  EXPECT_NEAR(moved.y(), -25.0, 0.5);
+  test_support::writeText(dir.file("bad.yaml"), "principal_point_offset_px: [600, 0]\n");
+  EXPECT_THROW_WITH(sim::TrialSimulator(sim::loadSimulatorSettings(dir.file("bad.yaml"))),
+                    "principal_point_offset_px");
+  test_support::writeText(dir.file("short.yaml"), "principal_point_offset_px: [1]\n");
+  EXPECT_THROW_WITH(sim::loadSimulatorSettings(dir.file("short.yaml")),
+                    "principal_point_offset_px");
 }
 
 // A left knee is the right one mirrored: the same clinical knee coordinates frame by frame,
