@@ -264,8 +264,9 @@ struct RegistrationSettings {
   bool tracking_retry = true;
   // A tracked frame whose doubt did not rise is also registered again (the same full schedule and
   // starts) when a bone's contour inlier fraction lies more than tracking_retry_inlier_drop below
-  // the median of its recent frames (InlierHistory, once it has relative_inlier_min_frames of
-  // them; 0 turns this off; single view only, as a second view sees the depth). Here a retry
+  // the median of its recent frames (InlierHistory, from the second frame on, where the status
+  // waits for relative_inlier_min_frames of them; 0 turns this off; single view only, as a
+  // second view sees the depth). Here a retry
   // replaces the continued result only if no bone's status is worse, the frame's final cost is
   // lower and those bones' fractions gain at least tracking_retry_min_inlier_gain together: the
   // continued result is not in doubt, so the retry must fit clearly better. Why: the continued
