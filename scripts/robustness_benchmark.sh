@@ -3,11 +3,12 @@
 # change one thing from the simulator's defaults (config/robustness/*.yaml: implant material
 # and polarity, view obliquity, implant size and design, a left knee, fast motion, resolution,
 # dose, scatter, blur, an occluding rod, collimation, lab clutter, an image intensifier's
-# distortion, a knee travelling across the view, the far leg passing the tracked knee). For each variant, simulate_trial makes a 60-frame trial (30 for fast_motion) and
-# track_bag tracks it with the trial's contact and ligament terms, from frame 0's pose and, with
-# --no-guess, again from no pose at all (automatic initialisation and recovery). Prints per variant
-# the frames within 1 mm in-plane, 2 deg about X and Z, 3 deg about Y, the frames the status
-# flagged, the RMS per degree of freedom and frames per second.
+# distortion, a knee travelling across the view, the far leg passing the tracked knee). For each
+# variant, simulate_trial makes a 60-frame trial (30 for fast_motion) and track_bag tracks it
+# with the trial's contact and ligament terms, from frame 0's pose and, with --no-guess, again
+# from no pose at all (automatic initialisation and recovery). Prints per variant the frames
+# within 1 mm in-plane, 2 deg about X and Z, 3 deg about Y, the frames the status flagged, the
+# RMS per degree of freedom and frames per second.
 # Usage: scripts/robustness_benchmark.sh [--no-guess] [variant ...]   (after scripts/build.sh)
 set -euo pipefail
 cd "$(dirname "$0")/.."

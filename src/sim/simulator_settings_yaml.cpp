@@ -78,23 +78,20 @@ TrialSimulatorSettings loadSimulatorSettings(const std::string& path) {
     throw InputError("simulator settings '" + path + "'.side: " + e.what());
   }
 
+  // An [x, y] or [x, y, z] list into a fixed-size Eigen vector.
   const auto read_vector = [&path](const io::YamlSection& section, const std::string& key,
-                                   const std::string& where, Eigen::Vector3d* value) {
-    std::vector<double> xyz = {value->x(), value->y(), value->z()};
-    section.read(key, &xyz);
-    if (xyz.size() != 3) {
-      throw InputError("simulator settings '" + path + "'." + where + key + " must be [x, y, z]");
+                                   const std::string& where, auto* value) {
+    const auto size = static_cast<std::size_t>(value->size());
+    std::vector<double> list(value->data(), value->data() + size);
+    section.read(key, &list);
+    if (list.size() != size) {
+      throw InputError("simulator settings '" + path + "'." + where + key + " must be " +
+                       (size == 2 ? "[x, y]" : "[x, y, z]"));
     }
-    *value = Eigen::Vector3d(xyz[0], xyz[1], xyz[2]);
+    for (std::size_t i = 0; i < size; ++i) (*value)(static_cast<Eigen::Index>(i)) = list[i];
   };
 
-  std::vector<double> principal = {s.principal_point_offset_px.x(),
-                                   s.principal_point_offset_px.y()};
-  r.read("principal_point_offset_px", &principal);
-  if (principal.size() != 2) {
-    throw InputError("simulator settings '" + path + "'.principal_point_offset_px must be [x, y]");
-  }
-  s.principal_point_offset_px = Eigen::Vector2d(principal[0], principal[1]);
+  read_vector(r, "principal_point_offset_px", "", &s.principal_point_offset_px);
 
   const io::YamlSection other = r.child("contralateral_knee");
   other.allowOnly({"kind", "offset_mm", "travel_mm", "phase"});

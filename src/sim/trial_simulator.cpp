@@ -319,47 +319,42 @@ SimulatedFrame TrialSimulator::truth(int index) const {
   return frame;
 }
 
+void TrialSimulator::appendKnee(const KneeImplantSet& implants, bool implanted,
+                                const Pose& camera_from_femur, const Pose& camera_from_tibia,
+                                std::vector<imaging::RenderObject>* objects) const {
+  if (implanted) {
+    objects->push_back({&implants.femoral_component, camera_from_femur,
+                        imaging::materialByName(settings_.femoral_material).attenuation_per_mm});
+    objects->push_back({&implants.tibial_tray, camera_from_tibia,
+                        imaging::materialByName(settings_.tray_material).attenuation_per_mm});
+    objects->push_back({&implants.tibial_insert, camera_from_tibia,
+                        imaging::materialByName(settings_.insert_material).attenuation_per_mm});
+  } else {
+    // The natural condyles: the femoral component's shape, filled with cancellous bone.
+    objects->push_back({&implants.femoral_component, camera_from_femur,
+                        imaging::materialByName("cancellous_bone").attenuation_per_mm});
+  }
+  // The anatomy's parts are symmetric about their sagittal plane: the same meshes serve either
+  // side.
+  for (const auto& part : anatomy_) {
+    objects->push_back({&part.mesh, part.on_femur ? camera_from_femur : camera_from_tibia,
+                        part.attenuation_per_mm});
+  }
+}
+
 cv::Mat TrialSimulator::lineIntegral(int index, int view) const {
   const SimulatedFrame frame = truth(index);
   const SimulatedView& v = views_.at(view);
   const Pose camera_from_fixed = v.camera.worldFromCamera().inverse();
   const Pose camera_from_femur = camera_from_fixed * frame.femur;
   const Pose camera_from_tibia = camera_from_fixed * frame.tibia;
-  std::vector<imaging::RenderObject> objects = {
-      {&implants_.femoral_component, camera_from_femur,
-       imaging::materialByName(settings_.femoral_material).attenuation_per_mm},
-      {&implants_.tibial_tray, camera_from_tibia,
-       imaging::materialByName(settings_.tray_material).attenuation_per_mm},
-      {&implants_.tibial_insert, camera_from_tibia,
-       imaging::materialByName(settings_.insert_material).attenuation_per_mm},
-  };
-  for (const auto& part : anatomy_) {
-    objects.push_back({&part.mesh, part.on_femur ? camera_from_femur : camera_from_tibia,
-                       part.attenuation_per_mm});
-  }
+  std::vector<imaging::RenderObject> objects;
+  appendKnee(implants_, true, camera_from_femur, camera_from_tibia, &objects);
   const ContralateralKnee::Kind other = settings_.contralateral_knee.kind;
   if (other != ContralateralKnee::Kind::kNone) {
     const BonePoses bones = contralateralBonesAt(index);
-    const Pose camera_from_other_femur = camera_from_fixed * bones.femur;
-    const Pose camera_from_other_tibia = camera_from_fixed * bones.tibia;
-    if (other == ContralateralKnee::Kind::kImplanted) {
-      objects.push_back({&contralateral_implants_.femoral_component, camera_from_other_femur,
-                         imaging::materialByName(settings_.femoral_material).attenuation_per_mm});
-      objects.push_back({&contralateral_implants_.tibial_tray, camera_from_other_tibia,
-                         imaging::materialByName(settings_.tray_material).attenuation_per_mm});
-      objects.push_back({&contralateral_implants_.tibial_insert, camera_from_other_tibia,
-                         imaging::materialByName(settings_.insert_material).attenuation_per_mm});
-    } else {
-      // The natural condyles: the femoral component's shape, filled with cancellous bone.
-      objects.push_back({&contralateral_implants_.femoral_component, camera_from_other_femur,
-                         imaging::materialByName("cancellous_bone").attenuation_per_mm});
-    }
-    // The anatomy's parts are symmetric about their sagittal plane: the same meshes serve.
-    for (const auto& part : anatomy_) {
-      objects.push_back({&part.mesh,
-                         part.on_femur ? camera_from_other_femur : camera_from_other_tibia,
-                         part.attenuation_per_mm});
-    }
+    appendKnee(contralateral_implants_, other == ContralateralKnee::Kind::kImplanted,
+               camera_from_fixed * bones.femur, camera_from_fixed * bones.tibia, &objects);
   }
   for (const LabObject& object : lab_objects_) {
     objects.push_back({&object.mesh, camera_from_fixed * object.pose, object.attenuation_per_mm});

@@ -13,6 +13,7 @@
 #include "fluoro_tracker/geometry/xray_camera.h"
 #include "fluoro_tracker/imaging/detector_model.h"
 #include "fluoro_tracker/imaging/lens_distortion.h"
+#include "fluoro_tracker/imaging/renderer.h"
 #include "fluoro_tracker/io/fluoro_view.h"
 #include "fluoro_tracker/io/trial_config.h"
 #include "fluoro_tracker/kinematics/knee_coordinates.h"
@@ -169,6 +170,11 @@ class TrialSimulator {
   BonePoses kneeBonesAt(int index) const;
   // The contralateral knee's bones at frame `index` in the fixed frame (see ContralateralKnee).
   BonePoses contralateralBonesAt(int index) const;
+  // A knee's render objects, posed in a view's camera frame: `implants` (or, not `implanted`, its
+  // femoral component's shape in cancellous bone as natural condyles) and the anatomy.
+  void appendKnee(const KneeImplantSet& implants, bool implanted,
+                  const geometry::Pose& camera_from_femur, const geometry::Pose& camera_from_tibia,
+                  std::vector<imaging::RenderObject>* objects) const;
 
   TrialSimulatorSettings settings_;
   // The motion and the contact that settles it are modelled on a right knee; a left trial

@@ -81,6 +81,19 @@ struct VariantFrames {
     }
     return errors;
   }
+
+  // Of those frames after frame 0, how many have a bone outside the success criteria.
+  static int framesOffAfterTheFirst(
+      const std::vector<std::array<registration::PoseError, 2>>& errors) {
+    int off = 0;
+    for (std::size_t f = 1; f < errors.size(); ++f) {
+      if (!registration::meetsSuccessCriterion(errors[f][0]) ||
+          !registration::meetsSuccessCriterion(errors[f][1])) {
+        ++off;
+      }
+    }
+    return off;
+  }
 };
 
 }  // namespace
@@ -602,13 +615,7 @@ TEST(Tracker, FollowsAKneeThatTravelsAcrossTheViewBeyondTheRegistrationsReach) {
     registration::RegistrationSettings settings;
     settings.tracking_shift_search_mm = reach_mm;
     const auto errors = trial.trackedErrors(settings);
-    int off = 0;  // frames 1-6
-    for (std::size_t f = 1; f < errors.size(); ++f) {
-      if (!registration::meetsSuccessCriterion(errors[f][0]) ||
-          !registration::meetsSuccessCriterion(errors[f][1])) {
-        ++off;
-      }
-    }
+    const int off = VariantFrames::framesOffAfterTheFirst(errors);  // of frames 1-6
     if (reach_mm > 0.0) {
       EXPECT_EQ(off, 0);
     } else {
@@ -638,13 +645,7 @@ TEST(Tracker, RetriesTheSecondFrameWhereABoneFitsWorseThanInTheFirst) {
     registration::RegistrationSettings settings;
     settings.tracking_retry_inlier_drop = drop;
     const auto errors = trial.trackedErrors(settings);
-    int off = 0;  // frames 1-3
-    for (std::size_t f = 1; f < errors.size(); ++f) {
-      if (!registration::meetsSuccessCriterion(errors[f][0]) ||
-          !registration::meetsSuccessCriterion(errors[f][1])) {
-        ++off;
-      }
-    }
+    const int off = VariantFrames::framesOffAfterTheFirst(errors);  // of frames 1-3
     if (drop > 0.0) {
       EXPECT_EQ(off, 0);
     } else {
