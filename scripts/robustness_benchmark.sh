@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# Robustness benchmark: tracking accuracy on simulated single-plane total-knee trials that each
-# change one thing from the simulator's defaults (config/robustness/*.yaml: implant material
-# and polarity, view obliquity, implant size and design, a left knee, fast motion, resolution,
-# dose, scatter, blur, an occluding rod, collimation, lab clutter, an image intensifier's
-# distortion, a knee travelling across the view, the far leg passing the tracked knee). For each
+# Robustness benchmark: tracking accuracy on simulated total-knee trials (single-plane but for
+# one) that each change one thing from the simulator's defaults (config/robustness/*.yaml:
+# implant material and polarity, view obliquity, implant size and design, a left knee, fast
+# motion, resolution, dose, scatter, blur, an occluding rod, collimation, lab clutter, an image
+# intensifier's distortion, a knee travelling across the view, the far leg passing the tracked
+# knee, a bi-plane pair whose second beam looks along the thigh). For each
 # variant, simulate_trial makes a 60-frame trial (30 for fast_motion) and track_bag tracks it
 # with the trial's contact and ligament terms, from frame 0's pose and, with --no-guess, again
 # from no pose at all (automatic initialisation and recovery). Prints per variant the frames

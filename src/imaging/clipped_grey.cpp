@@ -99,5 +99,17 @@ bool ClippedGrey::beside(const Eigen::Vector2d& clipped_side,
   return end != End::kNone && nearEnd(other_side, end);
 }
 
+bool ClippedGrey::amidNearEnd(const Eigen::Vector2d& pixel, double reach) const {
+  if (empty()) return false;
+  const Eigen::Vector2d around[4] = {{reach, 0.0}, {-reach, 0.0}, {0.0, reach}, {0.0, -reach}};
+  for (const End end : {End::kLow, End::kHigh}) {
+    if (!(end == End::kLow ? low_candidate_ : high_candidate_)) continue;
+    bool all = true;
+    for (const Eigen::Vector2d& step : around) all = all && nearEnd(pixel + step, end);
+    if (all) return true;
+  }
+  return false;
+}
+
 }  // namespace imaging
 }  // namespace fluoro_tracker

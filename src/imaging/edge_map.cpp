@@ -467,6 +467,10 @@ bool EdgeMap::besideClippedGrey(const Eigen::Vector2d& pixel,
   return clipped_grey_.beside(pixel - kInsideReachPx * outward, pixel + kOutsideReachPx * outward);
 }
 
+bool EdgeMap::amidClippedGrey(const Eigen::Vector2d& pixel) const {
+  return clipped_grey_.amidNearEnd(pixel, kOutsideReachPx);
+}
+
 void EdgeMap::findNearestEdges(const cv::Mat& gx, const cv::Mat& gy, const cv::Mat& magnitude,
                                const std::vector<cv::Point>& edge_pixels, double band) {
   // Sub-pixel edge points and unit normals (toward the brighter side) at every edge pixel.

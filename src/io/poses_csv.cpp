@@ -58,7 +58,7 @@ void writePosesCsv(const std::string& path, const std::vector<PoseRecord>& recor
   out << kPosesCsvHeader
       << (with_quality
               ? ",contour_inlier_fraction,contour_rms_px,out_of_plane_sd_mm,contour_spread_px,"
-                "offset_inlier_fraction"
+                "offset_inlier_fraction,unseen_fraction"
               : "")
       << "\n";
   char buffer[512];
@@ -76,8 +76,9 @@ void writePosesCsv(const std::string& path, const std::vector<PoseRecord>& recor
     if (with_quality) {
       const registration::BoneQuality q = r.quality.value_or(registration::BoneQuality());
       const double sd_mm = q.out_of_plane_sd_m >= 0.0 ? 1e3 * q.out_of_plane_sd_m : -1.0;
-      std::snprintf(buffer, sizeof(buffer), ",%.4f,%.4f,%.4f,%.4f,%.4f", q.contour_inlier_fraction,
-                    q.contour_rms_px, sd_mm, q.contour_spread_px, q.offset_inlier_fraction);
+      std::snprintf(buffer, sizeof(buffer), ",%.4f,%.4f,%.4f,%.4f,%.4f,%.4f",
+                    q.contour_inlier_fraction, q.contour_rms_px, sd_mm, q.contour_spread_px,
+                    q.offset_inlier_fraction, registration::unseenFraction(q));
       out << buffer;
     }
     out << "\n";

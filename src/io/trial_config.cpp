@@ -293,7 +293,8 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
        "suspect_inlier_fraction", "suspect_contour_spread_px", "suspect_contour_rms_px",
        "suspect_penetration_mm", "suspect_envelope_violation", "suspect_out_of_plane_sd_mm",
        "suspect_rotation_sd_deg", "relative_inlier_drop", "relative_inlier_spread",
-       "relative_inlier_window", "relative_inlier_min_frames", "relative_inlier_trend_frames"});
+       "relative_inlier_window", "relative_inlier_min_frames", "relative_inlier_trend_frames",
+       "unseen_edge_distance_px", "held_by_other_views_inlier_fraction"});
   quality.read("inlier_distance_px", &r.quality.inlier_distance_px);
   quality.read("inliers_at_edge_offset", &r.quality.inliers_at_edge_offset);
   quality.read("lost_inlier_fraction", &r.quality.lost_inlier_fraction);
@@ -309,6 +310,9 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   quality.read("relative_inlier_window", &r.quality.relative_inlier_window);
   quality.read("relative_inlier_min_frames", &r.quality.relative_inlier_min_frames);
   quality.read("relative_inlier_trend_frames", &r.quality.relative_inlier_trend_frames);
+  quality.read("unseen_edge_distance_px", &r.quality.unseen_edge_distance_px);
+  quality.read("held_by_other_views_inlier_fraction",
+               &r.quality.held_by_other_views_inlier_fraction);
   section.read("scales", &r.scales);
   section.read("outer_iterations", &r.outer_iterations);
   section.read("coarse_outer_iterations", &r.coarse_outer_iterations);

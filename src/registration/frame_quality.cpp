@@ -110,6 +110,8 @@ void QualitySettings::validate() const {
         "registration quality: relative_inlier_window must be >= 1 and "
         "relative_inlier_min_frames in [1, relative_inlier_window]");
   }
+  non_negative(unseen_edge_distance_px, "unseen_edge_distance_px");
+  fraction(held_by_other_views_inlier_fraction, "held_by_other_views_inlier_fraction");
   if (relative_inlier_trend_frames != 0 && relative_inlier_trend_frames < 3) {
     throw InputError("registration quality: relative_inlier_trend_frames must be 0 (off) or >= 3");
   }
@@ -147,16 +149,33 @@ int statusTrouble(const std::vector<std::string>& status) {
   return trouble;
 }
 
+double unseenFraction(const BoneQuality& quality) {
+  return quality.contour_points > 0
+             ? static_cast<double>(quality.unseen_points) / quality.contour_points
+             : 0.0;
+}
+
 double statusInlierFraction(const BoneQuality& quality, const QualitySettings& settings) {
-  return settings.inliers_at_edge_offset ? quality.offset_inlier_fraction
-                                         : quality.contour_inlier_fraction;
+  const double fraction = settings.inliers_at_edge_offset ? quality.offset_inlier_fraction
+                                                          : quality.contour_inlier_fraction;
+  // Unseen samples are never inliers: the share of the others is the same count over fewer.
+  const int seen = quality.contour_points - quality.unseen_points;
+  if (!(settings.unseen_edge_distance_px > 0.0) || quality.unseen_points <= 0 || seen <= 0) {
+    return fraction;
+  }
+  return fraction * quality.contour_points / seen;
+}
+
+QualitySettings everySampleCounted(QualitySettings settings) {
+  settings.unseen_edge_distance_px = 0.0;
+  return settings;
 }
 
 std::pair<int, double> resultRank(const RegistrationResult& result,
                                   const QualitySettings& settings) {
   double inliers = 0.0;
   for (const BoneQuality& q : result.quality) inliers += q.contour_inlier_fraction;
-  return {statusTrouble(classifyBones(result, settings)), -inliers};
+  return {statusTrouble(classifyBones(result, everySampleCounted(settings))), -inliers};
 }
 
 std::vector<std::string> classifyBones(const RegistrationResult& result,

@@ -364,7 +364,8 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
   } catch (const InputError& e) {
     first_error = e;  // nothing found with the first pass's edges
   }
-  if (first && statusTrouble(first->status) == 0) {
+  const QualitySettings& quality = registrar_->settings().quality;
+  if (first && resultRank(first->registration, quality).first == 0) {
     return finish(std::move(*first), 1);
   }
   if (passes_.size() < 2) {
@@ -380,8 +381,8 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
   }
   if (first_error) return finish(std::move(retry), 2);
   // Fewer bones suspect or lost first; between equal statuses, the better explanation.
-  const int retry_trouble = statusTrouble(retry.status);
-  const int first_trouble = statusTrouble(first->status);
+  const int retry_trouble = resultRank(retry.registration, quality).first;
+  const int first_trouble = resultRank(first->registration, quality).first;
   const bool retry_better = retry_trouble < first_trouble ||
                             (retry_trouble == first_trouble && retry.score > first->score);
   return finish(retry_better ? std::move(retry) : std::move(*first), 2);
@@ -389,7 +390,8 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
 
 PoseSearchResult PoseSearch::rescueAlongSightLines(const std::vector<ViewImage>& views,
                                                    PoseSearchResult found) const {
-  int best_trouble = statusTrouble(found.status);
+  const QualitySettings& quality = registrar_->settings().quality;
+  int best_trouble = resultRank(found.registration, quality).first;
   if (best_trouble == 0 || settings_.rescue_depth_factors.empty()) return found;
   const geometry::Pose& world_from_camera = views.front().camera.worldFromCamera();
   const geometry::Pose camera_from_world = world_from_camera.inverse();
@@ -410,8 +412,7 @@ PoseSearchResult PoseSearch::rescueAlongSightLines(const std::vector<ViewImage>&
     } catch (const InputError&) {
       continue;  // a start outside the views
     }
-    std::vector<std::string> status = classifyBones(registered, registrar_->settings().quality);
-    const int trouble = statusTrouble(status);
+    const int trouble = resultRank(registered, quality).first;
     const double score = finalistScore(registered);
     // Only a result the status doubts less replaces the search's: at equal statuses a higher
     // score is no sign of a truer pose (a tracked trial's first frame, rescued at its tray's
@@ -420,7 +421,7 @@ PoseSearchResult PoseSearch::rescueAlongSightLines(const std::vector<ViewImage>&
       rescued = true;
       best_trouble = trouble;
       found.registration = std::move(registered);
-      found.status = std::move(status);
+      found.status = classifyBones(found.registration, quality);
       found.score = score;
       found.rescue_depth_factor = factor;
     }

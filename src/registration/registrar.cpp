@@ -495,31 +495,38 @@ void estimateCovariances(ceres::Problem* problem, const ceres::Solver::Summary& 
 }
 
 // The image support of a bone at its final pose: its contour samples in every view's map, and
-// how many of them lie within `inlier_px` (full-resolution pixels) of an image edge, where the
-// outline lies and where the view's edge offset (`offsets_px[v]`, full-resolution pixels, along
-// `offset_directions[v]` or, for a fresh contour, offsetDirection) puts each sample. The samples
-// are the model points of the last contour extracted per view (`model_points[v]`; the final
-// step is small, so the rim is the same), projected at the final pose; a view without them
-// has its contour extracted afresh. Samples inside another bone's silhouette (`covering[v]`:
-// masks on map v's pixels) are not counted: where one implant crosses another their edges
-// fade, so a femoral component over the tray in flexion would lose a fifth of its inliers to
-// the overlap alone, and the fraction would follow the motion rather than the fit.
-// `residual_correlation`: also measure BoneQuality::residual_correlation_samples (for the
-// covariance only; its lag sums are the costliest part here).
+// how many of them lie within `settings.inlier_distance_px` (full-resolution pixels) of an
+// image edge, where the outline lies and where the view's edge offset (`offsets_px[v]`,
+// full-resolution pixels, along `offset_directions[v]` or, for a fresh contour, offsetDirection)
+// puts each sample. The samples are the model points of the last contour extracted per view
+// (`model_points[v]`; the final step is small, so the rim is the same), projected at the final
+// pose; a view without them has its contour extracted afresh. Samples inside another bone's
+// silhouette (`covering[v]`: masks on map v's pixels) are not counted: where one implant crosses
+// another their edges fade, so a femoral component over the tray in flexion would lose a fifth of
+// its inliers to the overlap alone, and the fraction would follow the motion rather than the fit.
+// With two or more views, also the samples the status leaves out as unseen
+// (BoneQuality::unseen_points). `residual_correlation`: also measure
+// BoneQuality::residual_correlation_samples (for the covariance only; its lag sums are the
+// costliest part here).
 BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geometry::Pose& pose,
                          const std::vector<imaging::EdgeMap>& maps,
                          const std::vector<std::vector<Eigen::Vector3d>>& model_points,
                          const std::vector<std::vector<Eigen::Vector2d>>& offset_directions,
                          const std::vector<double>& offsets_px,
                          RegistrationSettings::EdgeOffsetModel offset_model,
-                         const std::vector<std::vector<const cv::Mat*>>& covering, double inlier_px,
-                         bool residual_correlation) {
+                         const std::vector<std::vector<const cv::Mat*>>& covering,
+                         const QualitySettings& settings, bool residual_correlation) {
+  const double inlier_px = settings.inlier_distance_px;
   BoneQuality quality;
   int inliers = 0;
   int offset_inliers = 0;
   double squared = 0.0;
   // Per view, each sample's signed edge distance in contour order (NaN: not an inlier).
   std::vector<std::vector<double>> signed_distances(maps.size());
+  // Per view: counted samples, those the status calls inliers, and those with no edge near.
+  std::vector<int> view_points(maps.size(), 0);
+  std::vector<int> view_inliers(maps.size(), 0);
+  std::vector<int> view_unseen(maps.size(), 0);
   for (std::size_t v = 0; v < maps.size(); ++v) {
     const imaging::EdgeMap& map = maps[v];
     const geometry::XrayCamera& camera = map.camera();
@@ -556,10 +563,13 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
     };
     // Whether a sample at this position lies within inlier_px of an edge; its edge distance
     // (full-resolution pixels) in `distance`.
-    const auto within = [&](const Eigen::Vector2d& at, double* distance) {
+    // `on_map`: whether the sample lies on the map at all.
+    const auto within = [&](const Eigen::Vector2d& at, double* distance, bool* on_map = nullptr) {
       double du = 0.0;
       double dv = 0.0;
-      if (!map.sample(at.x(), at.y(), distance, &du, &dv)) return false;
+      const bool sampled = map.sample(at.x(), at.y(), distance, &du, &dv);
+      if (on_map) *on_map = sampled;
+      if (!sampled) return false;
       *distance /= map.scale();
       return std::abs(*distance) <= inlier_px;
     };
@@ -571,8 +581,10 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
         continue;
       }
       ++quality.contour_points;
+      ++view_points[v];
       double d = 0.0;
-      const bool inlier = within(pixel, &d);
+      bool on_map = false;
+      const bool inlier = within(pixel, &d, &on_map);
       if (inlier) {
         ++inliers;
         squared += d * d;
@@ -580,7 +592,27 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
       }
       // Without an offset (none estimated, or the offset model kNone) the same sample.
       double offset_d = 0.0;
-      if (shifts[k].isZero() ? inlier : within(pixel + shifts[k], &offset_d)) ++offset_inliers;
+      const bool offset_inlier = shifts[k].isZero() ? inlier : within(pixel + shifts[k], &offset_d);
+      if (offset_inlier) ++offset_inliers;
+      if (settings.inliers_at_edge_offset ? offset_inlier : inlier) ++view_inliers[v];
+      if (on_map && settings.unseen_edge_distance_px > 0.0 &&
+          std::abs(d) > settings.unseen_edge_distance_px && map.amidClippedGrey(pixel)) {
+        ++view_unseen[v];
+      }
+    }
+  }
+  // A view's unseen samples are left out while the other views hold the bone.
+  for (std::size_t v = 0; v < maps.size() && maps.size() > 1; ++v) {
+    int other_points = 0;
+    int other_inliers = 0;
+    for (std::size_t w = 0; w < maps.size(); ++w) {
+      if (w == v) continue;
+      other_points += view_points[w];
+      other_inliers += view_inliers[w];
+    }
+    if (other_points > 0 &&
+        other_inliers >= settings.held_by_other_views_inlier_fraction * other_points) {
+      quality.unseen_points += view_unseen[v];
     }
   }
   if (residual_correlation) {
@@ -1668,8 +1700,7 @@ void Registrar::finish(const std::vector<ViewImage>& views, Solution* solution) 
         *bones_[b].silhouette, result.poses[b], maps, solution->contour_model_points[b],
         solution->contour_offset_directions[b],
         b < result.edge_offsets_px.size() ? result.edge_offsets_px[b] : std::vector<double>(),
-        settings_.edge_offset_model, covering, settings_.quality.inlier_distance_px,
-        settings_.compute_covariance));
+        settings_.edge_offset_model, covering, settings_.quality, settings_.compute_covariance));
     if (b < result.covariance_valid.size() && result.covariance_valid[b]) {
       // The solver counts every contour sample as independent; neighbours share blur, the
       // silhouette's shape and the edge offset's pattern along it (see BoneQuality).

@@ -30,7 +30,7 @@ namespace {
 QualitySettings whereTheOutlineLies(QualitySettings settings) {
   settings.inliers_at_edge_offset = false;
   settings.relative_inlier_min_frames = 1;
-  return settings;
+  return everySampleCounted(settings);  // a decision (see accept())
 }
 
 }  // namespace
@@ -55,7 +55,9 @@ Tracker::Tracker(std::shared_ptr<const Registrar> registrar, std::vector<geometr
       edge_offsets_(
           registrar_ ? registrar_->settings().edge_offset_tracking : EdgeOffsetTrackingSettings(),
           registrar_ ? registrar_->settings().edge_offset_prior_px : 0.0),
-      inlier_history_(registrar_ ? registrar_->settings().quality : QualitySettings()),
+      inlier_history_(
+          everySampleCounted(registrar_ ? registrar_->settings().quality : QualitySettings())),
+      reported_history_(registrar_ ? registrar_->settings().quality : QualitySettings()),
       outline_history_(
           whereTheOutlineLies(registrar_ ? registrar_->settings().quality : QualitySettings())) {
   if (!registrar_) throw InputError("tracker: no registrar");
@@ -161,7 +163,7 @@ TrackedFrame Tracker::searchAndReset(const std::vector<ViewImage>& views) {
   TrackedFrame frame;
   frame.searched = true;
   frame.result = std::move(found.registration);
-  frame.status = found.status;
+  frame.status = classifyBones(frame.result, everySampleCounted(registrar_->settings().quality));
   frame.poses = frame.result.poses;
   frame.solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -190,11 +192,19 @@ void Tracker::rejectImplausibleJumps(TrackedFrame* frame) const {
 }
 
 void Tracker::accept(TrackedFrame* frame) {
+  // The status reported leaves out the contour samples a view cannot show while the other views
+  // hold the bone (QualitySettings::unseen_edge_distance_px); the tracker's own decisions, here
+  // and in track(), count every sample, so that the rule changes what is reported, never a pose.
+  std::vector<std::string> reported = classifyBones(frame->result, registrar_->settings().quality);
+  for (std::size_t b = 0; b < reported.size() && b < frame->status.size(); ++b) {
+    if (frame->status[b] == "lost") reported[b] = "lost";  // e.g. an implausible jump
+  }
   // The next frame's retry compares its own quality figures' status with this one's, before
   // either is compared with the bone's recent frames.
   previous_trouble_ = statusTrouble(frame->status);
   outline_history_.record(frame->result.quality, frame->status);  // the same frames
   inlier_history_.classify(frame->result.quality, &frame->status);
+  reported_history_.classify(frame->result.quality, &reported);
   const bool first = poses_.empty();
   bool all_ok = true;
   for (std::size_t b = 0; b < frame->poses.size(); ++b) {
@@ -231,6 +241,7 @@ void Tracker::accept(TrackedFrame* frame) {
       ++frames_since_ok_[b];
     }
   }
+  frame->status = std::move(reported);
 }
 
 std::vector<bool> Tracker::fitsWorseThanRecently(const RegistrationResult& result,
@@ -321,7 +332,7 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
   frame.result = poses_registered_
                      ? continuing_registrar_->solve(views, guess, loaded, priors, recentSpreads())
                      : registrar_->solve(views, guess, loaded, priors);
-  const QualitySettings& quality = registrar_->settings().quality;
+  const QualitySettings quality = everySampleCounted(registrar_->settings().quality);
   frame.status = classifyBones(frame.result, quality);
   const bool more_doubt = statusTrouble(frame.status) > previous_trouble_;
   const std::vector<bool> fits_worse = fitsWorseThanRecently(frame.result, views.size());

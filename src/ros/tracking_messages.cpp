@@ -105,6 +105,7 @@ TrackingStatus statusMessage(const std_msgs::Header& header,
       bone.out_of_plane_sd_m = q.out_of_plane_sd_m;
       bone.contour_spread_px = q.contour_spread_px;
       bone.offset_inlier_fraction = q.offset_inlier_fraction;
+      bone.unseen_fraction = registration::unseenFraction(q);
     } else {
       bone.out_of_plane_sd_m = -1.0;
     }

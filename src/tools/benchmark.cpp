@@ -1040,6 +1040,11 @@ int main(int argc, char** argv) {
           ->default_value(settings.quality.relative_inlier_trend_frames),
       "... and once there are this many, below the robust line through the last this many "
       "instead of the median (0: the median only)")(
+      "unseen-edge-distance-px",
+      po::value(&settings.quality.unseen_edge_distance_px)
+          ->default_value(settings.quality.unseen_edge_distance_px),
+      "status, two or more views: a view's contour samples farther than this from every edge "
+      "are left out of the inlier fraction while the other views hold the bone (0: off)")(
       "quality-csv", po::value(&quality_csv_path),
       "write every registration's quality figures, status and errors (x, y in-plane and z along "
       "the beam in mm; rotations about the bone's axes in deg) and the knee's angles (result and "

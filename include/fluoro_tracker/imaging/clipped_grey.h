@@ -40,6 +40,11 @@ class ClippedGrey {
   // plateau and the one at `other_side` on it or near the same end.
   bool beside(const Eigen::Vector2d& clipped_side, const Eigen::Vector2d& other_side) const;
 
+  // Whether the grey `reach` pixels each way from `pixel`, along both axes, lies near one end
+  // whose clipped plateau the region holds: in a display that clips that end, no edge there can
+  // stand out of the noise, whatever lies along the beam.
+  bool amidNearEnd(const Eigen::Vector2d& pixel, double reach) const;
+
  private:
   enum class End { kNone, kLow, kHigh };
 

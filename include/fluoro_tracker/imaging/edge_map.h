@@ -107,6 +107,11 @@ class EdgeMap {
   // within EdgeMapSettings::clipped_grey_margin of the same end. Always false when the setting
   // is 0 or the region has no clipped plateau.
   bool besideClippedGrey(const Eigen::Vector2d& pixel, const Eigen::Vector2d& outward) const;
+  // Whether the image around `pixel` (map pixels; 3 px each way) lies within
+  // EdgeMapSettings::clipped_grey_margin of an end of the region's grey that a clipped plateau
+  // holds: dark on dark (or bright on bright), where an outline cannot show. Always false when
+  // the setting is 0 or the region has no clipped plateau.
+  bool amidClippedGrey(const Eigen::Vector2d& pixel) const;
 
   const geometry::XrayCamera& camera() const { return camera_; }
   const cv::Mat& edges() const { return edges_; }  // CV_8U, 255 on edges

@@ -21,8 +21,9 @@ struct PoseRecord {
   geometry::Pose pose = geometry::Pose::Identity();
   std::string status = "ok";
   // Written as extra columns after `status` when set: contour_inlier_fraction,
-  // contour_rms_px, out_of_plane_sd_mm (-1 when not computed), contour_spread_px (last, so
-  // that readers of the earlier columns by position still find them).
+  // contour_rms_px, out_of_plane_sd_mm (-1 when not computed), contour_spread_px,
+  // offset_inlier_fraction, unseen_fraction (newest last, so that readers of the earlier
+  // columns by position still find them).
   std::optional<registration::BoneQuality> quality;
 };
 

@@ -26,6 +26,10 @@ struct BoneQuality {
   // a bone that fits has most of its outline beyond inlier_distance_px of the edge it fits,
   // and only this share says so. Equal to contour_inlier_fraction without an offset model.
   double offset_inlier_fraction = 0.0;
+  // Of contour_points, those the status's inlier fraction leaves out as unseen
+  // (QualitySettings::unseen_edge_distance_px): in a view with no image edge near them and
+  // clipped grey around them, while the bone's other views hold it. 0 in a single view.
+  int unseen_points = 0;
   double contour_rms_px = 0.0;  // RMS edge distance of the inliers (full-resolution pixels)
   // RMS of the inliers' edge distances about their mean in each view (full-resolution pixels):
   // the fit's scatter without its uniform part. A displayed rim lies a fraction of a pixel
@@ -103,6 +107,20 @@ struct QualitySettings {
   // fading into the soft tissue of thigh and calf in deep flexion) is followed, a sudden drop
   // is not. 0, or more than relative_inlier_window: the median alone.
   int relative_inlier_trend_frames = 8;
+  // Two or more views: a view's contour samples with no image edge within this distance
+  // (full-resolution pixels), amid grey near a clipped end of the display
+  // (EdgeMap::amidClippedGrey: dark on dark), are left out of the status's inlier fraction, as
+  // covered samples are, when the bone's other views hold it (at least
+  // held_by_other_views_inlier_fraction of their samples inliers). Where a bi-plane view looks
+  // along the thigh, its soft tissue shows the femoral component black on near-black, and the
+  // tray's outline fades where thigh and calf overlap in flexion; the other view holds the pose,
+  // and those samples say nothing about it. A bone that slid along the holding view's beam lies
+  // off its edges in the other view, in plain soft tissue, and is still flagged (bi-plane crude
+  // starts 17-19 mm off, without the clipped-grey test, were not). Only the status reported
+  // changes: choosing between solutions and the tracker's decisions count every sample
+  // (everySampleCounted), so no pose does. 0 turns it off. Measured: README, "Tracking quality".
+  double unseen_edge_distance_px = 15.0;
+  double held_by_other_views_inlier_fraction = 0.9;
 
   void validate() const;  // throws InputError naming the field
 };
@@ -124,7 +142,12 @@ double integratedAutocorrelation(const std::vector<std::vector<double>>& sequenc
 // any. Of each view's inliers' edge distances: BoneQuality::contour_spread_px.
 double rmsAboutSequenceMeans(const std::vector<std::vector<double>>& sequences);
 
-// The inlier fraction the status tests use (QualitySettings::inliers_at_edge_offset).
+// The share of a bone's counted contour samples left out of the status's fraction as unseen
+// (BoneQuality::unseen_points; 0 without samples).
+double unseenFraction(const BoneQuality& quality);
+
+// The inlier fraction the status tests use (QualitySettings::inliers_at_edge_offset), of the
+// contour samples not unseen (BoneQuality::unseen_points).
 double statusInlierFraction(const BoneQuality& quality, const QualitySettings& settings);
 
 // A joint's status from its two bones': lost if either is, ok if both are, else suspect.
@@ -134,8 +157,15 @@ std::string combinedStatus(const std::string& parent, const std::string& child);
 // ok, a lost one counting twice (0 when every bone is ok).
 int statusTrouble(const std::vector<std::string>& status);
 
+// The settings with every contour sample counted (unseen_edge_distance_px 0): for choosing
+// between solutions of one frame and deciding whether to retry it, where a wrong solution whose
+// outline a view shows in clipped dark grey would lose its misses there (a bi-plane knee from
+// crude starts, 12-19 mm along the first beam, was called ok).
+QualitySettings everySampleCounted(QualitySettings settings);
+
 // For choosing between registrations of one frame (lower is better): statusTrouble of its
-// bones' classifyBones status, then the negated sum of their contour inlier fractions.
+// bones' classifyBones status under everySampleCounted, then the negated sum of their contour
+// inlier fractions.
 std::pair<int, double> resultRank(const RegistrationResult& result,
                                   const QualitySettings& settings);
 

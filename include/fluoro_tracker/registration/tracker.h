@@ -128,7 +128,10 @@ class Tracker {
   bool poses_registered_ = false;         // poses_ come from a registration, not the user
   int previous_trouble_ = 0;  // statusTrouble of the last frame taken (its classifyBones status)
   EdgeOffsetFilter edge_offsets_;  // each bone's edge offset, carried between frames
-  InlierHistory inlier_history_;   // each bone's recent inlier fractions (its status)
+  // Each bone's recent inlier fractions, every contour sample counted (the tracker's decisions).
+  InlierHistory inlier_history_;
+  // The same as the status reported counts them (no unseen samples; see accept()).
+  InlierHistory reported_history_;
   // The same of the fractions counted where the outline lies, for the retry of a bone that fits
   // worse than recently (fitsWorseThanRecently): a bone sliding along the beam with its edge
   // offset keeps its fraction at the offset, not this one.

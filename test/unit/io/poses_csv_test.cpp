@@ -44,6 +44,8 @@ TEST(PosesCsv, QualityColumnsFollowTheStatusWithTheNewestLast) {
   quality.contour_rms_px = 0.9;
   quality.contour_spread_px = 0.3;
   quality.offset_inlier_fraction = 0.97;
+  quality.contour_points = 800;
+  quality.unseen_points = 200;
   quality.out_of_plane_sd_m = 0.0012;
   io::writePosesCsv(dir.file("q.csv"),
                     {{0, 1.0, "tibia", geometry::Pose::Identity(), "ok", quality}});
@@ -54,8 +56,8 @@ TEST(PosesCsv, QualityColumnsFollowTheStatusWithTheNewestLast) {
   std::getline(in, row);
   EXPECT_EQ(header, std::string(io::kPosesCsvHeader) +
                         ",contour_inlier_fraction,contour_rms_px,out_of_plane_sd_mm,"
-                        "contour_spread_px,offset_inlier_fraction");
-  EXPECT_NE(row.find(",ok,0.9500,0.9000,1.2000,0.3000,0.9700"), std::string::npos) << row;
+                        "contour_spread_px,offset_inlier_fraction,unseen_fraction");
+  EXPECT_NE(row.find(",ok,0.9500,0.9000,1.2000,0.3000,0.9700,0.2500"), std::string::npos) << row;
   EXPECT_EQ(io::readPosesCsv(dir.file("q.csv")).size(), 1u);
 }
 

@@ -383,7 +383,8 @@ registration:
   quality: {relative_inlier_drop: 0.2, relative_inlier_spread: 2.5, relative_inlier_window: 10,
             relative_inlier_min_frames: 5, relative_inlier_trend_frames: 6,
             suspect_contour_spread_px: 0.6, suspect_contour_rms_px: 1.2,
-            inliers_at_edge_offset: false}
+            inliers_at_edge_offset: false, unseen_edge_distance_px: 10,
+            held_by_other_views_inlier_fraction: 0.8}
 )");
   const io::TrialConfig c = io::loadTrialConfig(dir.file("trial.yaml"));
   EXPECT_EQ(c.registration.parameterisation,
@@ -428,6 +429,8 @@ registration:
   EXPECT_EQ(c.registration.quality.relative_inlier_trend_frames, 6);
   EXPECT_DOUBLE_EQ(c.registration.quality.suspect_contour_spread_px, 0.6);
   EXPECT_DOUBLE_EQ(c.registration.quality.suspect_contour_rms_px, 1.2);
+  EXPECT_DOUBLE_EQ(c.registration.quality.unseen_edge_distance_px, 10.0);
+  EXPECT_DOUBLE_EQ(c.registration.quality.held_by_other_views_inlier_fraction, 0.8);
   EXPECT_FALSE(c.registration.quality.inliers_at_edge_offset);
   EXPECT_DOUBLE_EQ(c.registration.quality.suspect_inlier_fraction,
                    registration::QualitySettings().suspect_inlier_fraction);
@@ -536,6 +539,8 @@ registration:
       "relative_inlier_min_frames in [1, relative_inlier_window]");
   expectRegistrationRejected("{quality: {relative_inlier_trend_frames: 2}}",
                              "relative_inlier_trend_frames must be 0 (off) or >= 3");
+  expectRegistrationRejected("{quality: {held_by_other_views_inlier_fraction: 1.5}}",
+                             "held_by_other_views_inlier_fraction must be in [0, 1]");
   expectRegistrationRejected("{edges: {edge_significance_low_ratio: 1.5}}",
                              "edge_significance_low_ratio in (0, 1]");
   expectRegistrationRejected("{edges: {clipped_grey_margin: -0.1}}",

@@ -75,6 +75,24 @@ TEST(FrameQuality, InlierTestsCountAtTheEdgeOffsetUnlessToldOtherwise) {
   EXPECT_DOUBLE_EQ(registration::statusInlierFraction(r.quality[0], s), 0.5);
 }
 
+// Unseen samples (a view's outline in clipped dark grey while the other views hold the bone)
+// leave the status's fraction; choosing between solutions still counts them as misses.
+TEST(FrameQuality, UnseenSamplesLeaveTheStatusButNotTheChoiceBetweenSolutions) {
+  registration::QualitySettings s;
+  auto held = twoBones(0.55, 0.95);
+  held.quality[0].contour_points = 1000;
+  held.quality[0].unseen_points = 400;  // 550 of the 600 seen samples are inliers
+  EXPECT_NEAR(registration::statusInlierFraction(held.quality[0], s), 550.0 / 600.0, 1e-12);
+  EXPECT_EQ(classifyBones(held, s), (std::vector<std::string>{"ok", "ok"}));
+  EXPECT_EQ(registration::resultRank(held, s).first, 1);  // 0.55 of every sample: suspect
+  s.unseen_edge_distance_px = 0.0;                        // off
+  EXPECT_EQ(classifyBones(held, s), (std::vector<std::string>{"suspect", "ok"}));
+  // Every sample unseen: nothing to count them by, so the fraction stands.
+  s = registration::QualitySettings();
+  held.quality[0].unseen_points = 1000;
+  EXPECT_EQ(registration::statusInlierFraction(held.quality[0], s), 0.55);
+}
+
 TEST(FrameQuality, AnImplausibleJointMakesBothBonesSuspect) {
   const registration::QualitySettings s;
   auto r = twoBones(0.95, 0.95);
