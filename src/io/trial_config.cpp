@@ -412,10 +412,12 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   rotation_retry.read("step_deg", &r.rotation_retry.step_deg);
   rotation_retry.read("tracking_spread_rise", &r.rotation_retry.tracking_spread_rise);
   const YamlSection depth_retry = section.child("depth_retry");
-  depth_retry.allowOnly({"enabled", "shifts_mm", "light_below_inlier_fraction"});
+  depth_retry.allowOnly(
+      {"enabled", "shifts_mm", "light_below_inlier_fraction", "other_views_shift_mm"});
   depth_retry.read("enabled", &r.depth_retry.enabled);
   depth_retry.read("shifts_mm", &r.depth_retry.shifts_mm);
   depth_retry.read("light_below_inlier_fraction", &r.depth_retry.light_below_inlier_fraction);
+  depth_retry.read("other_views_shift_mm", &r.depth_retry.other_views_shift_mm);
   const YamlSection edges = section.child("edges");
   edges.allowOnly({"window_low_percentile", "window_high_percentile", "clahe", "clahe_clip_limit",
                    "blur_sigma_px", "canny_low", "canny_high", "auto_high_fraction",

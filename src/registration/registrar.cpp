@@ -24,6 +24,7 @@
 #include "fluoro_tracker/registration/corner_rounding.h"
 #include "fluoro_tracker/registration/edge_map_prefetch.h"
 #include "fluoro_tracker/registration/edge_to_contour_cost.h"
+#include "fluoro_tracker/registration/image_shift_search.h"
 #include "fluoro_tracker/registration/ligament_cost.h"
 #include "fluoro_tracker/registration/mirror_ambiguity.h"
 #include "fluoro_tracker/registration/parent_relative_cost.h"
@@ -835,6 +836,9 @@ void RegistrationSettings::validate() const {
         depth_retry.light_below_inlier_fraction <= 1.0)) {
     throw InputError("registration: depth_retry: light_below_inlier_fraction must be in [0, 1]");
   }
+  if (!(depth_retry.other_views_shift_mm >= 0.0)) {
+    throw InputError("registration: depth_retry: other_views_shift_mm must be >= 0");
+  }
   edges.validate();
   quality.validate();
 }
@@ -945,8 +949,27 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
     return result;
   }
   // From the result, whose in-plane position and rotations are mostly right, rather than from
-  // the start (measured on the crude protocol: 91 against 89 % success).
+  // the start (measured on the crude protocol: 91 against 89 % success); from the first result
+  // even where the other views' shift below leaves fewer bones in doubt but not none.
   const std::vector<std::vector<geometry::Pose>> retry_starts = depthShifted(views, result.poses);
+  if (views.size() > 1 && settings_.depth_retry.other_views_shift_mm > 0.0) {
+    // Kept only if it leaves fewer bones in doubt: a shift to the wrong edges, with a few more
+    // inliers than the result at the same doubt, would only start the fixed shifts elsewhere.
+    std::optional<RegistrationResult> moved =
+        solvedFromOtherViewsShifts(views, loaded, offset_priors, result);
+    if (moved) {
+      counts.add(*moved);
+      const auto moved_rank = rank(*moved);
+      if (moved_rank.first < best_rank.first) {
+        best_rank = moved_rank;
+        result = std::move(*moved);
+      }
+    }
+    if (best_rank.first == 0) {
+      counts.writeTo(&result);
+      return result;
+    }
+  }
   // One thread solves a shift only if those before it left a bone in doubt; more threads solve
   // them all at once and leave unused (and uncounted) the ones after the first that clears it.
   // A speculative solve that throws is left to the loop below, which throws only if it gets
@@ -969,6 +992,29 @@ RegistrationResult Registrar::solveWithRetries(const std::vector<ViewImage>& vie
   }
   counts.writeTo(&result);
   return result;
+}
+
+std::optional<RegistrationResult> Registrar::solvedFromOtherViewsShifts(
+    const std::vector<ViewImage>& views, const std::vector<bool>& loaded,
+    const EdgeOffsetPriors& offset_priors, const RegistrationResult& result) const {
+  const std::vector<std::string> status =
+      classifyBones(result, everySampleCounted(settings_.quality));
+  std::vector<geometry::Pose> starts = result.poses;
+  bool moved = false;
+  for (std::size_t b = 0; b < bones_.size() && b < status.size(); ++b) {
+    if (status[b] == "ok") continue;
+    const auto shifted = posesShiftedToEdges({bones_[b]}, {result.poses[b]}, views, settings_.edges,
+                                             1e-3 * settings_.depth_retry.other_views_shift_mm);
+    if (!shifted) continue;
+    starts[b] = shifted->front();
+    moved = true;
+  }
+  if (!moved) return std::nullopt;
+  try {
+    return solveChecked(views, starts, loaded, offset_priors, settings_.threads);
+  } catch (const InputError&) {
+    return std::nullopt;  // a start outside a view
+  }
 }
 
 std::vector<std::vector<geometry::Pose>> Registrar::depthShifted(

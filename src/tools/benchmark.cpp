@@ -833,6 +833,11 @@ int main(int argc, char** argv) {
           ->default_value(settings.depth_retry.light_below_inlier_fraction),
       "every bone ok but one below this contour inlier fraction: solve again from the same "
       "shifts on the finest scale's maps only (0: never)")(
+      "depth-retry-other-views-shift-mm",
+      po::value(&settings.depth_retry.other_views_shift_mm)
+          ->default_value(settings.depth_retry.other_views_shift_mm),
+      "two or more views: first move each bone in doubt by its own contour's shift to the views' "
+      "edges, up to this far (0: off)")(
       "contour-spacing-px",
       po::value(&settings.contour_spacing_px)->default_value(settings.contour_spacing_px),
       "silhouette contour sample spacing, pixels at each scale")(

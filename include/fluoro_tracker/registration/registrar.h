@@ -155,10 +155,17 @@ struct MirrorCheckSettings {
 // at 0.95 (README "Registration"): crude starts on poor images 83 / 84 / 93 / 90.5 -> 85 / 86 /
 // 95 / 91 % (seeds 3 / 5 / 7 / 11), the other protocols unchanged, but their noise leaves nearly
 // every poor frame below 0.95, and the median time per frame rose about 4 ms, past 30 ms.
+// Two or more views: every view but the first sees a bone's place along the first beam in its
+// own image plane, so before the shifts a bone in doubt is first moved by its own contour's shift
+// to the views' edges (posesShiftedToEdges, one bone at a time, within
+// `other_views_shift_mm`; 0: not tried), and the frame solved again from there. Bi-plane crude
+// starts (each bone up to 20 or 50 mm off along the first beam) otherwise left a bone tens of
+// millimetres off where the fixed shifts do not reach (README "Registration").
 struct DepthRetrySettings {
   bool enabled = true;
   std::vector<double> shifts_mm = {-15.0, 15.0};
   double light_below_inlier_fraction = 0.0;
+  double other_views_shift_mm = 60.0;
 };
 
 // Single view: a bone whose contour lies poorly on the image's edges after the solve (inlier
@@ -672,6 +679,12 @@ class Registrar {
   bool mirrorChecked(std::size_t b) const;
   // The depth retry's starts: `poses` with every bone moved along its ray from the first view's
   // source by each of DepthRetrySettings::shifts_mm.
+  // Two or more views: the frame solved again with each bone in doubt moved by its own contour's
+  // shift to the views' edges (DepthRetrySettings::other_views_shift_mm); nothing when no bone
+  // moved or the solve threw.
+  std::optional<RegistrationResult> solvedFromOtherViewsShifts(
+      const std::vector<ViewImage>& views, const std::vector<bool>& loaded,
+      const EdgeOffsetPriors& offset_priors, const RegistrationResult& result) const;
   std::vector<std::vector<geometry::Pose>> depthShifted(
       const std::vector<ViewImage>& views, const std::vector<geometry::Pose>& poses) const;
   // One registration from these starts (solve is this plus the mirror check), finished.

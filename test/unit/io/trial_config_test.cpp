@@ -379,7 +379,8 @@ registration:
                      before_mirror_check: false}
   rotation_retry: {enabled: false, above_contour_spread_px: 0.6, step_deg: 4,
                    tracking_spread_rise: 1.5}
-  depth_retry: {enabled: false, shifts_mm: [-10, 10, -25], light_below_inlier_fraction: 0.8}
+  depth_retry: {enabled: false, shifts_mm: [-10, 10, -25], light_below_inlier_fraction: 0.8,
+                other_views_shift_mm: 30}
   quality: {relative_inlier_drop: 0.2, relative_inlier_spread: 2.5, relative_inlier_window: 10,
             relative_inlier_min_frames: 5, relative_inlier_trend_frames: 6,
             suspect_contour_spread_px: 0.6, suspect_contour_rms_px: 1.2,
@@ -420,6 +421,7 @@ registration:
   EXPECT_FALSE(c.registration.depth_retry.enabled);
   EXPECT_EQ(c.registration.depth_retry.shifts_mm, (std::vector<double>{-10.0, 10.0, -25.0}));
   EXPECT_DOUBLE_EQ(c.registration.depth_retry.light_below_inlier_fraction, 0.8);
+  EXPECT_DOUBLE_EQ(c.registration.depth_retry.other_views_shift_mm, 30.0);
   EXPECT_FALSE(c.registration.edges.thresholds_skip_saturated_borders);
   EXPECT_DOUBLE_EQ(c.registration.edges.clipped_grey_margin, 0.25);
   EXPECT_DOUBLE_EQ(c.registration.quality.relative_inlier_drop, 0.2);
@@ -528,6 +530,8 @@ registration:
                              "depth_retry: shifts_mm must be finite and non-zero");
   expectRegistrationRejected("{depth_retry: {light_below_inlier_fraction: 1.5}}",
                              "light_below_inlier_fraction must be in [0, 1]");
+  expectRegistrationRejected("{depth_retry: {other_views_shift_mm: -5}}",
+                             "other_views_shift_mm must be >= 0");
   expectRegistrationRejected("{quality: {relative_inlier_drop: -0.1}}",
                              "relative_inlier_drop must be in [0, 1]");
   expectRegistrationRejected("{quality: {relative_inlier_spread: -1}}",

@@ -1326,6 +1326,55 @@ TEST(Registrar, ReflectionRetryAlsoFreesAFemurTheMirrorCheckHid) {
   EXPECT_GT(freed.cost_evaluations, hidden.cost_evaluations);
 }
 
+// Bi-plane crude starts (the benchmark's: each bone up to 20 or 50 mm along the first beam):
+// here the femoral component 15 mm away from the source and the tray 45 mm towards it. The
+// second view sees them tens of pixels off their outlines, beyond what a registration or the
+// depth retry's fixed shifts reach, and the femoral component ends lost. The retry first moves a
+// bone in doubt by its own contour's shift to the views' edges
+// (DepthRetrySettings::other_views_shift_mm).
+TEST(Registrar, DepthRetryMovesABoneInDoubtToWhereTheOtherViewSeesIt) {
+  sim::TrialSimulatorSettings bi_plane = Scene::settings();
+  bi_plane.views = 2;
+  const sim::TrialSimulator simulator(bi_plane);
+  std::mt19937_64 rng(3);
+  const sim::SimulatedFrame frame = simulator.render(5, &rng);
+  const std::vector<registration::ViewImage> views = {
+      {frame.images[0], simulator.views()[0].camera},
+      {frame.images[1], simulator.views()[1].camera}};
+  const geometry::XrayCamera& first = simulator.views()[0].camera;
+  const Pose camera_from_fixed = first.worldFromCamera().inverse();
+  const std::vector<Pose> truth = {frame.femur, frame.tibia};
+  std::vector<Pose> start = truth;
+  const double along_beam_m[2] = {0.015, -0.045};
+  for (int b = 0; b < 2; ++b) {
+    Pose in_camera = camera_from_fixed * truth[b];
+    in_camera.translation().z() += along_beam_m[b];
+    start[b] = first.worldFromCamera() * in_camera;
+  }
+  registration::RegistrationSettings settings;
+  settings.scales = {0.25, 0.5, 1.0};  // the crude protocol's schedule
+  for (const double reach_mm : {0.0, settings.depth_retry.other_views_shift_mm}) {
+    SCOPED_TRACE(reach_mm);
+    settings.depth_retry.other_views_shift_mm = reach_mm;
+    const auto result =
+        test_support::simulatedKneeRegistrar(simulator, settings)->solve(views, start);
+    const std::vector<std::string> status = registration::classifyBones(result, settings.quality);
+    if (reach_mm > 0.0) {
+      EXPECT_EQ(status, (std::vector<std::string>{"ok", "ok"}));
+      for (int b = 0; b < 2; ++b) {
+        const registration::PoseError error =
+            registration::poseError(result.poses[b], truth[b], camera_from_fixed);
+        EXPECT_TRUE(registration::meetsSuccessCriterion(error)) << b;
+        EXPECT_LT(std::abs(error.translation_mm.z()), 1.0) << b;
+      }
+    } else {
+      EXPECT_NE(status, (std::vector<std::string>{"ok", "ok"}))
+          << "the registration and the fixed shifts now find both bones: the test needs a harder "
+             "start";
+    }
+  }
+}
+
 // Contour samples inside the other bone's silhouette (the tray crossing the femoral component
 // in flexion, where the two implants' edges fade) are left out of the inlier fraction, so the
 // fraction of a registration at the truth stays high through the overlap.
