@@ -524,7 +524,9 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
   double squared = 0.0;
   // Per view, each sample's signed edge distance in contour order (NaN: not an inlier).
   std::vector<std::vector<double>> signed_distances(maps.size());
-  // Per view: counted samples, those the status calls inliers, and those with no edge near.
+  // Per view: counted samples, those the status calls inliers, and those with no edge near
+  // (only where another view could hold the bone).
+  const bool count_unseen = maps.size() > 1 && settings.unseen_edge_distance_px > 0.0;
   std::vector<int> view_points(maps.size(), 0);
   std::vector<int> view_inliers(maps.size(), 0);
   std::vector<int> view_unseen(maps.size(), 0);
@@ -596,14 +598,14 @@ BoneQuality imageQuality(const imaging::SilhouetteModel& silhouette, const geome
       const bool offset_inlier = shifts[k].isZero() ? inlier : within(pixel + shifts[k], &offset_d);
       if (offset_inlier) ++offset_inliers;
       if (settings.inliers_at_edge_offset ? offset_inlier : inlier) ++view_inliers[v];
-      if (on_map && settings.unseen_edge_distance_px > 0.0 &&
-          std::abs(d) > settings.unseen_edge_distance_px && map.amidClippedGrey(pixel)) {
+      if (count_unseen && on_map && std::abs(d) > settings.unseen_edge_distance_px &&
+          map.amidClippedGrey(pixel)) {
         ++view_unseen[v];
       }
     }
   }
   // A view's unseen samples are left out while the other views hold the bone.
-  for (std::size_t v = 0; v < maps.size() && maps.size() > 1; ++v) {
+  for (std::size_t v = 0; v < maps.size() && count_unseen; ++v) {
     int other_points = 0;
     int other_inliers = 0;
     for (std::size_t w = 0; w < maps.size(); ++w) {

@@ -677,14 +677,14 @@ class Registrar {
                       RegistrationResult* result) const;
   // Whether the mirror check reflects bone `b` (the child of a knee joint).
   bool mirrorChecked(std::size_t b) const;
-  // The depth retry's starts: `poses` with every bone moved along its ray from the first view's
-  // source by each of DepthRetrySettings::shifts_mm.
   // Two or more views: the frame solved again with each bone in doubt moved by its own contour's
   // shift to the views' edges (DepthRetrySettings::other_views_shift_mm); nothing when no bone
   // moved or the solve threw.
   std::optional<RegistrationResult> solvedFromOtherViewsShifts(
       const std::vector<ViewImage>& views, const std::vector<bool>& loaded,
       const EdgeOffsetPriors& offset_priors, const RegistrationResult& result) const;
+  // The depth retry's starts: `poses` with every bone moved along its ray from the first view's
+  // source by each of DepthRetrySettings::shifts_mm.
   std::vector<std::vector<geometry::Pose>> depthShifted(
       const std::vector<ViewImage>& views, const std::vector<geometry::Pose>& poses) const;
   // One registration from these starts (solve is this plus the mirror check), finished.
