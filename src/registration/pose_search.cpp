@@ -6,6 +6,7 @@
 #include <limits>
 #include <optional>
 
+#include "fluoro_tracker/imaging/featureless_frame.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/median.h"
 #include "fluoro_tracker/parallel_for.h"
@@ -346,6 +347,13 @@ PoseSearchResult PoseSearch::search(const std::vector<ViewImage>& views,
   if (!seeds.empty() && seeds.size() != bones) {
     throw InputError("pose search: " + std::to_string(seeds.size()) + " seed pose(s) for " +
                      std::to_string(bones) + " bone(s)");
+  }
+  // Its regions come from the first view: in one that shows nothing, every noise speck is one.
+  const std::string nothing = imaging::featurelessFrame(
+      views.front().image, registrar_->settings().featureless_noise_ratio);
+  if (!nothing.empty()) {
+    throw InputError("pose search: the " + std::string(views.size() > 1 ? "first view" : "frame") +
+                     " shows " + nothing + ": no bone to find");
   }
   // Every result a search returns, rescued first if a bone is still in doubt.
   const auto finish = [&](PoseSearchResult found, int passes) {

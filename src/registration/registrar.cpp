@@ -813,6 +813,9 @@ void RegistrationSettings::validate() const {
   if (!(tracking_shift_search_mm >= 0.0) || !std::isfinite(tracking_shift_search_mm)) {
     throw InputError("registration: tracking_shift_search_mm must be finite and >= 0");
   }
+  if (!(featureless_noise_ratio >= 0.0) || !std::isfinite(featureless_noise_ratio)) {
+    throw InputError("registration: featureless_noise_ratio must be finite and >= 0");
+  }
   if (!(tracking_retry_max_inlier_loss >= 0.0 && tracking_retry_max_inlier_loss <= 1.0)) {
     throw InputError("registration: tracking_retry_max_inlier_loss must be in [0, 1]");
   }

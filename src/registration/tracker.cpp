@@ -7,6 +7,7 @@
 #include <limits>
 #include <optional>
 
+#include "fluoro_tracker/imaging/featureless_frame.h"
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/median.h"
 #include "fluoro_tracker/parallel_for.h"
@@ -31,6 +32,20 @@ QualitySettings whereTheOutlineLies(QualitySettings settings) {
   settings.inliers_at_edge_offset = false;
   settings.relative_inlier_min_frames = 1;
   return everySampleCounted(settings);  // a decision (see accept())
+}
+
+// Why the frame shows nothing when no view shows anything ("the frame shows one grey level", or
+// with several views "no view shows anything (view 1: ...; view 2: ...)", see
+// imaging::featurelessFrame); empty when some view shows something.
+std::string featurelessViews(const std::vector<ViewImage>& views, double max_ratio) {
+  std::string shown;
+  for (std::size_t v = 0; v < views.size(); ++v) {
+    const std::string nothing = imaging::featurelessFrame(views[v].image, max_ratio);
+    if (nothing.empty()) return {};
+    if (views.size() == 1) return "the frame shows " + nothing;
+    shown += (v == 0 ? "" : "; ") + ("view " + std::to_string(v + 1) + ": ") + nothing;
+  }
+  return "no view shows anything (" + shown + ")";
 }
 
 }  // namespace
@@ -191,6 +206,19 @@ void Tracker::rejectImplausibleJumps(TrackedFrame* frame) const {
   }
 }
 
+TrackedFrame Tracker::giveUp(const std::string& reason) {
+  TrackedFrame frame;
+  frame.given_up = reason;
+  frame.poses = poses_;
+  frame.status.assign(poses_.size(), "lost");
+  frame.result.poses = poses_;
+  frame.result.diverged.assign(poses_.size(), true);
+  // Time passes all the same: a bone may be that much farther from its last good pose by the
+  // frame that finds it (rejectImplausibleJumps).
+  for (int& frames : frames_since_ok_) ++frames;
+  return frame;
+}
+
 void Tracker::accept(TrackedFrame* frame) {
   // The status reported leaves out the contour samples a view cannot show while the other views
   // hold the bone (QualitySettings::unseen_edge_distance_px); the tracker's own decisions, here
@@ -306,14 +334,10 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
     }
     try {
       return searchAndReset(views);
-    } catch (const InputError&) {
+    } catch (const InputError& e) {
       // Nothing found in this frame: still lost, at the last good poses; search the next.
-      TrackedFrame frame;
+      TrackedFrame frame = giveUp(e.what());
       frame.searched = true;
-      frame.poses = poses_;
-      frame.status.assign(poses_.size(), "lost");
-      frame.result.poses = poses_;
-      frame.result.diverged.assign(poses_.size(), true);
       return frame;
     }
   }
@@ -334,6 +358,17 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
                      : registrar_->solve(views, guess, loaded, priors);
   const QualitySettings quality = everySampleCounted(registrar_->settings().quality);
   frame.status = classifyBones(frame.result, quality);
+  if (statusTrouble(frame.status) > 0) {
+    // Before the retries and the search, which a frame that shows nothing only keeps busy.
+    const std::string nothing =
+        featurelessViews(views, registrar_->settings().featureless_noise_ratio);
+    if (!nothing.empty()) {
+      TrackedFrame given_up = giveUp(nothing);
+      given_up.solve_seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      return given_up;
+    }
+  }
   const bool more_doubt = statusTrouble(frame.status) > previous_trouble_;
   const std::vector<bool> fits_worse = fitsWorseThanRecently(frame.result, views.size());
   const bool any_fits_worse =

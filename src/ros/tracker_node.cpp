@@ -336,6 +336,10 @@ void TrackerNode::process(const PendingFrame& frame) {
     ROS_WARN_THROTTLE(5.0, "tracker_node: frame at %.3f: %s", frame.header.stamp.toSec(),
                       jump.c_str());
   }
+  if (!tracked.given_up.empty()) {
+    ROS_WARN_THROTTLE(5.0, "tracker_node: frame at %.3f given up, every bone lost: %s",
+                      frame.header.stamp.toSec(), tracked.given_up.c_str());
+  }
   const auto& bones = registrar_->bones();
   const auto transforms = boneTransforms(frame.header.stamp, fixed_frame, *registrar_, tracked);
   tf_broadcaster_.sendTransform(transforms);
@@ -584,6 +588,10 @@ bool TrackerNode::onPlayBag(PlayBag::Request& request, PlayBag::Response& respon
               registration::describeImplausibleJumps(tracked, registrar_->bones());
           if (!jump.empty())
             ROS_WARN("tracker_node: play_bag frame %d: %s", frame.index, jump.c_str());
+          if (!tracked.given_up.empty()) {
+            ROS_WARN("tracker_node: play_bag frame %d given up, every bone lost: %s", frame.index,
+                     tracked.given_up.c_str());
+          }
           ++tracked_frames;
           if (result_bag)
             result_bag->addFrame(frame.stamp_s, reader.fixedFrame(), *registrar_, tracked);

@@ -113,6 +113,7 @@ TrackingStatus statusMessage(const std_msgs::Header& header,
     status.bones.push_back(bone);
   }
   status.frames_dropped = frames_dropped;
+  status.given_up = tracked.given_up;
   return status;
 }
 

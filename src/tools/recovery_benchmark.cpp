@@ -38,6 +38,7 @@
 #include "fluoro_tracker/input_error.h"
 #include "fluoro_tracker/io/trial_config.h"
 #include "fluoro_tracker/io/trial_models.h"
+#include "fluoro_tracker/median.h"
 #include "fluoro_tracker/registration/pose_error.h"
 #include "fluoro_tracker/registration/pose_search.h"
 #include "fluoro_tracker/registration/registrar.h"
@@ -89,6 +90,8 @@ struct Event {
   int jumps = 0;         // bones whose reported pose moved off the criterion while kept ok
   int back_after = -1;   // frames after it until every bone meets the criterion (-1: never)
   int silent_after = 0;  // frames after it, before back, off the criterion with every bone ok
+  double ms = 0.0;       // the time it took, and the frames after it until back (a live node
+  double back_ms = 0.0;  //   drops the frames that arrive meanwhile beyond its queue)
 };
 
 struct Tallies {
@@ -110,7 +113,11 @@ void printSummary(const std::string& label, const std::vector<const Event*>& eve
                   int max_frames_back) {
   int flagged = 0, back = 0, never = 0, silent = 0, jumps = 0, slowest = 0, silent_after = 0;
   std::vector<int> after;
+  std::vector<double> ms;
+  std::vector<double> back_ms;
   for (const Event* e : events) {
+    ms.push_back(e->ms);
+    back_ms.push_back(e->back_ms);
     flagged += e->flagged ? 1 : 0;
     silent += e->silent_wrong;
     jumps += e->jumps;
@@ -133,7 +140,12 @@ void printSummary(const std::string& label, const std::vector<const Event*>& eve
   }
   if (never > 0) std::cout << ", never back " << never;
   std::cout << "; wrong poses kept ok " << silent << ", jumps " << jumps
-            << "; frames off the criterion at status ok before back " << silent_after << "\n";
+            << "; frames off the criterion at status ok before back " << silent_after
+            << "; time: the frame median " << std::fixed << std::setprecision(0) << median(ms)
+            << " ms (max " << *std::max_element(ms.begin(), ms.end())
+            << "), the frames after it until back median " << median(back_ms) << " ms (max "
+            << *std::max_element(back_ms.begin(), back_ms.end()) << ")\n";
+  std::cout.unsetf(std::ios::floatfield);
 }
 
 }  // namespace
@@ -244,6 +256,7 @@ int main(int argc, char** argv) {
         }
         if (corrupted) {
           Event& e = *open;
+          e.ms = tallies.frame_ms.back();
           e.status = tracked.status;
           for (std::size_t b = 0; b < bones; ++b) {
             const bool ok = tracked.status[b] == "ok";
@@ -257,6 +270,7 @@ int main(int argc, char** argv) {
             }
           }
         } else if (open != nullptr) {
+          open->back_ms += tallies.frame_ms.back();
           if (within) {
             open->back_after = f - open->frame;
             open = nullptr;
@@ -272,8 +286,9 @@ int main(int argc, char** argv) {
           std::cout << "  trial " << trial << " frame " << f << (corrupted ? " (corrupted)" : "")
                     << ": " << joined(tracked.status)
                     << (within ? ", within" : ", off" + errors.str())
-                    << (tracked.searched ? ", searched" : "") << ", " << std::fixed
-                    << std::setprecision(0) << tallies.frame_ms.back() << " ms\n";
+                    << (tracked.searched ? ", searched" : "")
+                    << (tracked.given_up.empty() ? "" : ", given up: " + tracked.given_up) << ", "
+                    << std::fixed << std::setprecision(0) << tallies.frame_ms.back() << " ms\n";
         }
         reported_before = tracked.poses;
       }

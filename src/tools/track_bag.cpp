@@ -156,6 +156,10 @@ int main(int argc, char** argv) {
               const std::string jump = registration::describeImplausibleJumps(tracked_frame, bones);
               if (!jump.empty())
                 std::cerr << "track_bag: frame " << frame.index << ": " << jump << "\n";
+              if (!tracked_frame.given_up.empty()) {
+                std::cerr << "track_bag: frame " << frame.index
+                          << " given up, every bone lost: " << tracked_frame.given_up << "\n";
+              }
               result = tracked_frame.result;
               result.poses = tracked_frame.poses;  // lost bones: their last good pose
               status = tracked_frame.status;

@@ -1,7 +1,9 @@
 // Checks a running tracker_node (started by tracker_node.test with a simulated bag playing).
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <mutex>
+#include <optional>
 
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/WrenchStamped.h>
@@ -378,6 +380,64 @@ TEST(TrackerNode, TracksAnOutOfOrderFrameAndSaysSo) {
   if (compressed) {
     EXPECT_TRUE(undecodable_logged) << "no error for the frame that does not decode";
   }
+}
+
+// A frame of one grey level (the beam off) is given up at once: every bone lost at a finite pose,
+// and the status says why. Single view, raw frames (`image_topic`).
+TEST(TrackerNode, GivesUpABlankFrameAndSaysWhy) {
+  const std::string image_topic = param("image_topic");
+  if (image_topic.empty()) GTEST_SKIP() << "run with a single-view node on raw frames";
+  const std::string info_topic = image_topic.substr(0, image_topic.rfind('/') + 1) + "camera_info";
+  rosbag::Bag bag(param("bag"));
+  sensor_msgs::Image::ConstPtr image;
+  sensor_msgs::CameraInfo::ConstPtr info;
+  for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
+    if (!image) image = m.instantiate<sensor_msgs::Image>();
+    if (!info) info = m.instantiate<sensor_msgs::CameraInfo>();
+    if (image && info) break;
+  }
+  ASSERT_TRUE(image && info);
+  // Later than every frame of the trial, so that it is no out-of-order frame.
+  sensor_msgs::Image blank = *image;
+  blank.header.stamp += ros::Duration(1000.0);
+  std::fill(blank.data.begin(), blank.data.end(), 100);
+  sensor_msgs::CameraInfo blank_info = *info;
+  blank_info.header.stamp = blank.header.stamp;
+  ros::NodeHandle nh;
+  std::mutex mutex;
+  std::optional<TrackingStatus> status;
+  auto status_sub = nh.subscribe<TrackingStatus>("/tracker_node/status", 10,
+                                                 [&](const TrackingStatus::ConstPtr& m) {
+                                                   std::lock_guard<std::mutex> lock(mutex);
+                                                   if (m->header.stamp == blank.header.stamp)
+                                                     status = *m;
+                                                 });
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  ros::Publisher image_pub = nh.advertise<sensor_msgs::Image>(image_topic, 1);
+  ros::Publisher info_pub = nh.advertise<sensor_msgs::CameraInfo>(info_topic, 1);
+  const ros::WallTime connect_deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+  while ((image_pub.getNumSubscribers() == 0 || info_pub.getNumSubscribers() == 0 ||
+          status_sub.getNumPublishers() == 0) &&
+         ros::WallTime::now() < connect_deadline) {
+    ros::WallDuration(0.1).sleep();
+  }
+  ASSERT_GT(image_pub.getNumSubscribers(), 0u) << "the node does not listen on " << image_topic;
+  info_pub.publish(blank_info);
+  image_pub.publish(blank);
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(20.0);
+  while (ros::WallTime::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (status) break;
+    }
+    ros::WallDuration(0.1).sleep();
+  }
+  std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_TRUE(status) << "no status for the blank frame";
+  EXPECT_NE(status->given_up.find("one grey level"), std::string::npos) << status->given_up;
+  ASSERT_FALSE(status->bones.empty());
+  for (const auto& bone : status->bones) EXPECT_EQ(bone.status, "lost") << bone.bone;
 }
 
 int main(int argc, char** argv) {

@@ -312,6 +312,16 @@ struct RegistrationSettings {
   // (motion: joint_travel_mm 300 mm across the view in 20 frames, 16 mm per frame): 1/20 frames
   // within the criteria without it (the knee lost from frame 1 on), see README "Registration".
   double tracking_shift_search_mm = 60.0;
+  // A tracked frame that leaves a bone suspect or lost, and any frame about to be searched, is
+  // first tested for showing anything at all (imaging::featurelessFrame): a frame of one grey
+  // level, or whose neighbouring pixels differ as much as any two (this ratio or more; 0: off),
+  // is given up at once with every bone lost at its last good pose and the tracker's state as it
+  // was, so that the next frame is tracked on as if it had not come. Why: the beam off or a
+  // read-out fault left the tracker searching for 1-30 s (a noise frame's every speck is a
+  // candidate region) while a live node dropped the frames that arrived, and the next frame was
+  // searched as well. Radiographs measure 0.007-0.011, pixel noise 1.0 (README "Tracking
+  // quality").
+  double featureless_noise_ratio = 0.5;
   // inner_edge_margin_px for a tracked frame registered from the previous frame's result (the
   // frames above) and for its retries. Such a frame starts within a pixel or two of its outlines,
   // where a bone's own inner edges only mislead it (a titanium tray's rim and pocket). From a

@@ -26,6 +26,10 @@ struct TrackedFrame {
   // well than it can move in the frames since, so it is reported lost at its last good pose
   // instead (e.g. a frame showing the knee mirrored, or another knee).
   std::vector<bool> implausible_jump;
+  // Why the frame was given up with every bone lost at its last good pose, when it was: it shows
+  // nothing (RegistrationSettings::featureless_noise_ratio), or a recovery search found nothing.
+  // Empty otherwise. For logs.
+  std::string given_up;
 };
 
 // "the search found femur farther from the last good pose than ..." for a frame with
@@ -88,6 +92,9 @@ class Tracker {
  private:
   // Takes a registered frame's poses by their status (lost bones keep their last good pose).
   void accept(TrackedFrame* frame);
+  // A frame given up for `reason` (TrackedFrame::given_up): every bone lost at its last good pose,
+  // the state as it was but for the frames counted since each bone was last ok.
+  TrackedFrame giveUp(const std::string& reason);
   // Marks lost (TrackedFrame::implausible_jump) each bone a recovery search put farther from its
   // pose in the last frame that called it ok than it can move in the frames since.
   void rejectImplausibleJumps(TrackedFrame* frame) const;

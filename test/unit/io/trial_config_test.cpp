@@ -353,6 +353,7 @@ registration:
   tracking_retry_min_inlier_gain: 0.03
   tracking_retry_max_inlier_loss: 0.07
   tracking_shift_search_mm: 45.0
+  featureless_noise_ratio: 0.7
   inner_edge_margin_px: 2.5
   tracking_inner_edge_margin_px: 3.5
   tracking_prediction: constant_velocity
@@ -445,6 +446,7 @@ registration:
   EXPECT_DOUBLE_EQ(c.registration.tracking_retry_min_inlier_gain, 0.03);
   EXPECT_DOUBLE_EQ(c.registration.tracking_retry_max_inlier_loss, 0.07);
   EXPECT_DOUBLE_EQ(c.registration.tracking_shift_search_mm, 45.0);
+  EXPECT_DOUBLE_EQ(c.registration.featureless_noise_ratio, 0.7);
   EXPECT_DOUBLE_EQ(c.registration.inner_edge_margin_px, 2.5);
   EXPECT_DOUBLE_EQ(c.registration.tracking_inner_edge_margin_px, 3.5);
   EXPECT_EQ(c.registration.tracking_prediction,
@@ -509,6 +511,8 @@ registration:
                              "inner_edge_margin_px and tracking_inner_edge_margin_px must be");
   expectRegistrationRejected("{tracking_shift_search_mm: -1}",
                              "tracking_shift_search_mm must be finite and >= 0");
+  expectRegistrationRejected("{featureless_noise_ratio: -0.5}",
+                             "featureless_noise_ratio must be finite and >= 0");
   expectRegistrationRejected("{tracking_inner_edge_margin_px: .inf}",
                              "inner_edge_margin_px and tracking_inner_edge_margin_px must be");
   expectRegistrationRejected("{tracking_retry_inlier_drop: -0.1}",
@@ -562,6 +566,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_EQ(c.registration.tracking_scales, d.tracking_scales);
   EXPECT_EQ(c.registration.tracking_retry, d.tracking_retry);
   EXPECT_DOUBLE_EQ(c.registration.tracking_shift_search_mm, d.tracking_shift_search_mm);
+  EXPECT_DOUBLE_EQ(c.registration.featureless_noise_ratio, d.featureless_noise_ratio);
   EXPECT_EQ(c.registration.outer_iterations, d.outer_iterations);
   EXPECT_EQ(c.registration.solver_iterations, d.solver_iterations);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, d.robust_scale_px);

@@ -725,6 +725,7 @@ TEST(PoseSearch, NearerChamferMatchingFindsADarkKneeItsRegionsPutTooFar) {
   expectFoundOnlyWithNearerChamferMatching(s, 2, 4);
 }
 
+// A frame of one grey level or of noise is reported, not guessed (see imaging::featurelessFrame).
 TEST(PoseSearch, ABlankFrameIsReportedNotGuessed) {
   sim::TrialSimulatorSettings s;
   s.motion.frames = 10;
@@ -732,7 +733,13 @@ TEST(PoseSearch, ABlankFrameIsReportedNotGuessed) {
   const registration::PoseSearch search(simulatedKneeRegistrar(sim));
   const cv::Mat blank(sim.views()[0].camera.height(), sim.views()[0].camera.width(), CV_16U,
                       cv::Scalar(1000));
-  EXPECT_THROW(search.search({{blank, sim.views()[0].camera}}), InputError);
+  EXPECT_THROW_WITH(search.search({{blank, sim.views()[0].camera}}),
+                    "pose search: the frame shows one grey level: no bone to find");
+  // Pixel noise (a read-out fault) as well, at once: no speck of it is a candidate region.
+  cv::Mat noise = blank.clone();
+  cv::RNG(3).fill(noise, cv::RNG::UNIFORM, 0, 65536);
+  EXPECT_THROW_WITH(search.search({{noise, sim.views()[0].camera}}),
+                    "pose search: the frame shows pixel noise only");
   registration::PoseSearchSettings bad;
   bad.min_depth_m = 3.0;
   bad.max_depth_m = 1.0;
