@@ -253,6 +253,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "tracking_retry_max_inlier_loss",
                      "tracking_shift_search_mm",
                      "featureless_noise_ratio",
+                     "tracking_recovery_registration",
                      "tracking_prediction",
                      "solver_iterations",
                      "contour_spacing_px",
@@ -325,6 +326,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("tracking_retry_max_inlier_loss", &r.tracking_retry_max_inlier_loss);
   section.read("tracking_shift_search_mm", &r.tracking_shift_search_mm);
   section.read("featureless_noise_ratio", &r.featureless_noise_ratio);
+  section.read("tracking_recovery_registration", &r.tracking_recovery_registration);
   std::string tracking_prediction = registration::trackingPredictionName(r.tracking_prediction);
   section.read("tracking_prediction", &tracking_prediction);
   section.read("solver_iterations", &r.solver_iterations);

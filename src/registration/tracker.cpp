@@ -332,12 +332,41 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
     for (const ViewImage& view : views) {
       if (view.image.empty()) throw InputError("tracker: empty image");
     }
+    double tried_seconds = 0.0;
+    if (!search_requested_ && registrar_->settings().tracking_recovery_registration) {
+      // First a registration from the last good poses, with the full schedule and mirror check
+      // as from poses the user gave (see RegistrationSettings::tracking_recovery_registration),
+      // taken only with every bone ok, its recent frames' inlier history included.
+      const auto start = std::chrono::steady_clock::now();
+      try {
+        TrackedFrame frame;
+        frame.result = registrar_->solve(
+            views, poses_, loaded, edge_offsets_.priors(registrar_->bones().size(), views.size()));
+        frame.status =
+            classifyBones(frame.result, everySampleCounted(registrar_->settings().quality));
+        std::vector<std::string> against_history = frame.status;
+        InlierHistory(inlier_history_).classify(frame.result.quality, &against_history);
+        frame.solve_seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if (statusTrouble(against_history) == 0) {
+          frame.poses = frame.result.poses;
+          accept(&frame);
+          return frame;
+        }
+      } catch (const InputError&) {
+      }
+      tried_seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
     try {
-      return searchAndReset(views);
+      TrackedFrame found = searchAndReset(views);
+      found.solve_seconds += tried_seconds;
+      return found;
     } catch (const InputError& e) {
       // Nothing found in this frame: still lost, at the last good poses; search the next.
       TrackedFrame frame = giveUp(e.what());
       frame.searched = true;
+      frame.solve_seconds = tried_seconds;
       return frame;
     }
   }

@@ -322,6 +322,13 @@ struct RegistrationSettings {
   // searched as well. Radiographs measure 0.007-0.011, pixel noise 1.0 (README "Tracking
   // quality").
   double featureless_noise_ratio = 0.5;
+  // A tracker recovering from a lost bone first registers the frame from the last good poses,
+  // with the full schedule and mirror check as from poses the user gave, and takes that only if
+  // every bone is ok (its recent inlier history included); otherwise it searches the frame. Why:
+  // the frame after one the tracker lost (flipped, half black, a bone hidden for a moment) mostly
+  // shows the knee where it was, and the search cost 2-5 s there, while a live node dropped the
+  // frames that arrived meanwhile (README "Tracking quality").
+  bool tracking_recovery_registration = true;
   // inner_edge_margin_px for a tracked frame registered from the previous frame's result (the
   // frames above) and for its retries. Such a frame starts within a pixel or two of its outlines,
   // where a bone's own inner edges only mislead it (a titanium tray's rim and pocket). From a

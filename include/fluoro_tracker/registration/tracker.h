@@ -45,14 +45,17 @@ std::string describeImplausibleJumps(const TrackedFrame& frame,
 // from it. With a PoseSearch, the tracker also starts without poses (the first frame is searched)
 // and recovers: a frame whose registration loses a bone is searched at once, seeded by the last
 // good poses (so a crude first-frame guess costs no frame); if that finds nothing, each following
-// frame is searched until no bone is lost. A recovery search whose bone lies farther from its pose
-// in the last frame that called it ok than it can move in the frames since (RegistrationSettings::
-// max_translation_from_start_m and max_rotation_from_start_rad per frame, the limits of one
-// frame's registration) leaves that bone lost at its last good pose: a frame that shows a knee, but
-// not this one where it was a moment ago, is not followed. Frames started from an earlier frame's
-// registration skip the registrar's mirror check (the motion so far tells the side); frames started
-// from poses the user gave (the first frame, reinitialize) have it as configured. ROS-free: used by
-// track_bag and the tracking node.
+// frame is registered from the last good poses and, unless that leaves every bone ok, searched,
+// until no bone is lost (RegistrationSettings::tracking_recovery_registration). A frame that
+// shows nothing is given up without either (RegistrationSettings::featureless_noise_ratio). A
+// recovery search whose bone lies farther from its pose in the last frame that called it ok than it
+// can move in the frames since (RegistrationSettings::max_translation_from_start_m and
+// max_rotation_from_start_rad per frame, the limits of one frame's registration) leaves that bone
+// lost at its last good pose: a frame that shows a knee, but not this one where it was a moment
+// ago, is not followed. Frames started from an earlier frame's registration skip the registrar's
+// mirror check (the motion so far tells the side); frames started from poses the user gave (the
+// first frame, reinitialize) have it as configured. ROS-free: used by track_bag and the tracking
+// node.
 class Tracker {
  public:
   // `initial`: per bone, its pose at the first frame. Empty: found by `search` on the first
