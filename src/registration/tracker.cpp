@@ -332,6 +332,11 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
     for (const ViewImage& view : views) {
       if (view.image.empty()) throw InputError("tracker: empty image");
     }
+    // Neither the registration nor the search below can find anything in a frame that shows
+    // nothing, and on noise both would take their time.
+    const std::string nothing =
+        featurelessViews(views, registrar_->settings().featureless_noise_ratio);
+    if (!nothing.empty()) return giveUp(nothing);
     double tried_seconds = 0.0;
     if (!search_requested_ && registrar_->settings().tracking_recovery_registration) {
       // First a registration from the last good poses, with the full schedule and mirror check

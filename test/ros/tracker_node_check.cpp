@@ -40,6 +40,17 @@ std::string param(const std::string& name, const std::string& fallback = "") {
   return value;
 }
 
+// Waits up to 10 s until the node listens to both publishers and publishes to `status_sub`.
+void waitForTheNode(const ros::Publisher& image_pub, const ros::Publisher& info_pub,
+                    const ros::Subscriber& status_sub) {
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(10.0);
+  while ((image_pub.getNumSubscribers() == 0 || info_pub.getNumSubscribers() == 0 ||
+          status_sub.getNumPublishers() == 0) &&
+         ros::WallTime::now() < deadline) {
+    ros::WallDuration(0.1).sleep();
+  }
+}
+
 }  // namespace
 
 // The node tracks the played frames: its tf (stamped with the image stamps) is near the ground
@@ -346,12 +357,7 @@ TEST(TrackerNode, TracksAnOutOfOrderFrameAndSaysSo) {
   ros::Publisher image_pub = compressed ? nh.advertise<sensor_msgs::CompressedImage>(image_topic, 1)
                                         : nh.advertise<sensor_msgs::Image>(image_topic, 1);
   ros::Publisher info_pub = nh.advertise<sensor_msgs::CameraInfo>(info_topic, 1);
-  const ros::WallTime connect_deadline = ros::WallTime::now() + ros::WallDuration(10.0);
-  while ((image_pub.getNumSubscribers() == 0 || info_pub.getNumSubscribers() == 0 ||
-          status_sub.getNumPublishers() == 0) &&
-         ros::WallTime::now() < connect_deadline) {
-    ros::WallDuration(0.1).sleep();
-  }
+  waitForTheNode(image_pub, info_pub, status_sub);
   ASSERT_GT(image_pub.getNumSubscribers(), 0u) << "the node does not listen on " << image_topic;
   ros::WallDuration(0.5).sleep();  // let the rosout subscription connect too
   if (compressed) {
@@ -416,12 +422,7 @@ TEST(TrackerNode, GivesUpABlankFrameAndSaysWhy) {
   spinner.start();
   ros::Publisher image_pub = nh.advertise<sensor_msgs::Image>(image_topic, 1);
   ros::Publisher info_pub = nh.advertise<sensor_msgs::CameraInfo>(info_topic, 1);
-  const ros::WallTime connect_deadline = ros::WallTime::now() + ros::WallDuration(10.0);
-  while ((image_pub.getNumSubscribers() == 0 || info_pub.getNumSubscribers() == 0 ||
-          status_sub.getNumPublishers() == 0) &&
-         ros::WallTime::now() < connect_deadline) {
-    ros::WallDuration(0.1).sleep();
-  }
+  waitForTheNode(image_pub, info_pub, status_sub);
   ASSERT_GT(image_pub.getNumSubscribers(), 0u) << "the node does not listen on " << image_topic;
   info_pub.publish(blank_info);
   image_pub.publish(blank);

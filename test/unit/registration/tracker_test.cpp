@@ -373,6 +373,15 @@ TEST(Tracker, DoesNotFollowASearchToAKneeWhereTheBoneCannotBe) {
     }
   }
   EXPECT_TRUE(tracker.recovering());
+  // A blank frame meanwhile is given up at once, neither registered nor searched, and the
+  // tracker is still recovering.
+  sim::SimulatedFrame blank = frames[kFlipped];
+  blank.images[0] =
+      cv::Mat(frames[kFlipped].images[0].size(), frames[kFlipped].images[0].type(), cv::Scalar(40));
+  const registration::TrackedFrame given_up = tracker.track(trial.views(blank));
+  EXPECT_EQ(given_up.given_up, "the frame shows one grey level");
+  EXPECT_FALSE(given_up.searched);
+  EXPECT_TRUE(tracker.recovering());
   // Back on the next frame, registered from the last good poses, which leaves both bones ok: no
   // search (RegistrationSettings::tracking_recovery_registration).
   const registration::TrackedFrame back = tracker.track(trial.views(frames[kFlipped + 1]));
