@@ -34,6 +34,11 @@ QualitySettings whereTheOutlineLies(QualitySettings settings) {
   return everySampleCounted(settings);  // a decision (see accept())
 }
 
+// Wall time since `start`, in seconds.
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 // Why the frame shows nothing when no view shows anything ("the frame shows one grey level", or
 // with several views "no view shows anything (view 1: ...; view 2: ...)", see
 // imaging::featurelessFrame); empty when some view shows something.
@@ -180,8 +185,7 @@ TrackedFrame Tracker::searchAndReset(const std::vector<ViewImage>& views) {
   frame.result = std::move(found.registration);
   frame.status = classifyBones(frame.result, everySampleCounted(registrar_->settings().quality));
   frame.poses = frame.result.poses;
-  frame.solve_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  frame.solve_seconds = secondsSince(start);
   if (search_requested_) {
     search_requested_ = false;
   } else {
@@ -326,6 +330,31 @@ bool Tracker::fitsAboutAsMuch(const RegistrationResult& retry, const Registratio
   return true;
 }
 
+std::optional<TrackedFrame> Tracker::registeredFromLastGoodPoses(
+    const std::vector<ViewImage>& views, const std::vector<bool>& loaded, double* seconds) {
+  // The full schedule and mirror check, as from poses the user gave; every bone must be ok, its
+  // recent frames' inlier history included (asked of a copy: nothing recorded for a frame not
+  // taken).
+  const auto start = std::chrono::steady_clock::now();
+  TrackedFrame frame;
+  try {
+    frame.result = registrar_->solve(
+        views, poses_, loaded, edge_offsets_.priors(registrar_->bones().size(), views.size()));
+  } catch (const InputError&) {
+    *seconds = secondsSince(start);
+    return std::nullopt;
+  }
+  frame.status = classifyBones(frame.result, everySampleCounted(registrar_->settings().quality));
+  std::vector<std::string> against_history = frame.status;
+  InlierHistory(inlier_history_).classify(frame.result.quality, &against_history);
+  *seconds = secondsSince(start);
+  if (statusTrouble(against_history) > 0) return std::nullopt;
+  frame.solve_seconds = *seconds;
+  frame.poses = frame.result.poses;
+  accept(&frame);
+  return frame;
+}
+
 TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vector<bool>& loaded) {
   if (poses_.empty()) return searchAndReset(views);
   if (recovering_) {
@@ -339,29 +368,9 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
     if (!nothing.empty()) return giveUp(nothing);
     double tried_seconds = 0.0;
     if (!search_requested_ && registrar_->settings().tracking_recovery_registration) {
-      // First a registration from the last good poses, with the full schedule and mirror check
-      // as from poses the user gave (see RegistrationSettings::tracking_recovery_registration),
-      // taken only with every bone ok, its recent frames' inlier history included.
-      const auto start = std::chrono::steady_clock::now();
-      try {
-        TrackedFrame frame;
-        frame.result = registrar_->solve(
-            views, poses_, loaded, edge_offsets_.priors(registrar_->bones().size(), views.size()));
-        frame.status =
-            classifyBones(frame.result, everySampleCounted(registrar_->settings().quality));
-        std::vector<std::string> against_history = frame.status;
-        InlierHistory(inlier_history_).classify(frame.result.quality, &against_history);
-        frame.solve_seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        if (statusTrouble(against_history) == 0) {
-          frame.poses = frame.result.poses;
-          accept(&frame);
-          return frame;
-        }
-      } catch (const InputError&) {
-      }
-      tried_seconds =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      std::optional<TrackedFrame> registered =
+          registeredFromLastGoodPoses(views, loaded, &tried_seconds);
+      if (registered) return std::move(*registered);
     }
     try {
       TrackedFrame found = searchAndReset(views);
@@ -398,8 +407,7 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
         featurelessViews(views, registrar_->settings().featureless_noise_ratio);
     if (!nothing.empty()) {
       TrackedFrame given_up = giveUp(nothing);
-      given_up.solve_seconds =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      given_up.solve_seconds = secondsSince(start);
       return given_up;
     }
   }
@@ -463,8 +471,7 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
       }
     }
   }
-  frame.solve_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  frame.solve_seconds = secondsSince(start);
   frame.poses = frame.result.poses;
   const bool any_lost =
       std::find(frame.status.begin(), frame.status.end(), "lost") != frame.status.end();

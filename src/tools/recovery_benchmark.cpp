@@ -132,6 +132,8 @@ void printSummary(const std::string& label, const std::vector<const Event*>& eve
   }
   std::sort(after.begin(), after.end());
   const int n = static_cast<int>(events.size());
+  std::ios format(nullptr);
+  format.copyfmt(std::cout);
   std::cout << "  " << std::left << std::setw(9) << label << std::right << std::setw(3) << n
             << " event(s): flagged " << flagged << "/" << n << ", back within " << max_frames_back
             << " frame(s) " << back << "/" << n;
@@ -145,7 +147,7 @@ void printSummary(const std::string& label, const std::vector<const Event*>& eve
             << " ms (max " << *std::max_element(ms.begin(), ms.end())
             << "), the frames after it until back median " << median(back_ms) << " ms (max "
             << *std::max_element(back_ms.begin(), back_ms.end()) << ")\n";
-  std::cout.unsetf(std::ios::floatfield);
+  std::cout.copyfmt(format);  // as it was: later lines set their own
 }
 
 }  // namespace

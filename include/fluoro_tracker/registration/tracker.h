@@ -95,6 +95,12 @@ class Tracker {
  private:
   // Takes a registered frame's poses by their status (lost bones keep their last good pose).
   void accept(TrackedFrame* frame);
+  // A recovering frame registered from the last good poses (RegistrationSettings::
+  // tracking_recovery_registration), taken (accept()) when every bone is ok; nothing otherwise,
+  // and nothing changes. `seconds`: the time it took either way.
+  std::optional<TrackedFrame> registeredFromLastGoodPoses(const std::vector<ViewImage>& views,
+                                                          const std::vector<bool>& loaded,
+                                                          double* seconds);
   // A frame given up for `reason` (TrackedFrame::given_up): every bone lost at its last good pose,
   // the state as it was but for the frames counted since each bone was last ok.
   TrackedFrame giveUp(const std::string& reason);
