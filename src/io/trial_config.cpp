@@ -254,6 +254,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
                      "tracking_shift_search_mm",
                      "featureless_noise_ratio",
                      "tracking_recovery_registration",
+                     "tracking_restart_after_suspect",
                      "tracking_prediction",
                      "solver_iterations",
                      "contour_spacing_px",
@@ -327,6 +328,7 @@ registration::RegistrationSettings readRegistrationSettings(const YAML::Node& no
   section.read("tracking_shift_search_mm", &r.tracking_shift_search_mm);
   section.read("featureless_noise_ratio", &r.featureless_noise_ratio);
   section.read("tracking_recovery_registration", &r.tracking_recovery_registration);
+  section.read("tracking_restart_after_suspect", &r.tracking_restart_after_suspect);
   std::string tracking_prediction = registration::trackingPredictionName(r.tracking_prediction);
   section.read("tracking_prediction", &tracking_prediction);
   section.read("solver_iterations", &r.solver_iterations);

@@ -168,6 +168,8 @@ void Tracker::reinitialize(const std::vector<std::string>& bones,
   frames_since_ok_.clear();
   poses_registered_ = false;
   previous_trouble_ = 0;
+  previous_all_ok_ = false;
+  before_doubt_.clear();
 }
 
 void Tracker::requestSearch() {
@@ -248,6 +250,12 @@ void Tracker::accept(TrackedFrame* frame) {
   std::vector<bool> usable(frame->status.size());
   for (std::size_t b = 0; b < usable.size(); ++b) usable[b] = frame->status[b] != "lost";
   edge_offsets_.update(frame->result.edge_offsets_px, usable);
+  // A registered frame that leaves a bone suspect right after a frame with every bone ok: the
+  // next frame is registered from that frame's poses as well (tracking_restart_after_suspect).
+  before_doubt_.clear();
+  if (!all_ok && previous_all_ok_ && !first && !any_lost && !frame->searched)
+    before_doubt_ = poses_;
+  previous_all_ok_ = all_ok;
   // Velocity only from two good frames in a row; a lost bone restarts from its last good pose.
   previous_ = all_ok && !first && !frame->searched ? poses_ : std::vector<geometry::Pose>();
   if (!first || !any_lost) poses_ = frame->poses;
@@ -355,6 +363,34 @@ std::optional<TrackedFrame> Tracker::registeredFromLastGoodPoses(
   return frame;
 }
 
+void Tracker::preferThePosesBeforeDoubt(const std::vector<ViewImage>& views,
+                                        const std::vector<bool>& loaded,
+                                        const EdgeOffsetPriors& priors, TrackedFrame* frame) const {
+  // The last frame was the first in doubt: its poses may be a corrupted frame's (a tray turned
+  // to fit a mirrored frame, at status ok beside a suspect femur), and a registration continued
+  // from them would carry that side of the view's ambiguity on at status ok. The result from the
+  // poses before it continues the motion the bones had while ok, so it is kept unless the other
+  // leaves fewer bones in doubt or fits clearly better.
+  RegistrationResult from_before;
+  try {
+    from_before =
+        continuing_registrar_->solve(views, before_doubt_, loaded, priors, recentSpreads());
+  } catch (const InputError&) {
+    return;  // e.g. a bone those poses put outside a view: the continued result stands
+  }
+  const QualitySettings quality = everySampleCounted(registrar_->settings().quality);
+  const auto before_rank = resultRank(from_before, quality);
+  const auto continued_rank = resultRank(frame->result, quality);
+  const bool continued_better = continued_rank.first < before_rank.first ||
+                                (continued_rank.first == before_rank.first &&
+                                 frame->result.final_cost < from_before.final_cost &&
+                                 before_rank.second - continued_rank.second >=
+                                     registrar_->settings().tracking_retry_min_inlier_gain);
+  if (continued_better) return;
+  frame->result = std::move(from_before);
+  frame->status = classifyBones(frame->result, quality);
+}
+
 TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vector<bool>& loaded) {
   if (poses_.empty()) return searchAndReset(views);
   if (recovering_) {
@@ -401,6 +437,11 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
                      : registrar_->solve(views, guess, loaded, priors);
   const QualitySettings quality = everySampleCounted(registrar_->settings().quality);
   frame.status = classifyBones(frame.result, quality);
+  if (!before_doubt_.empty() && poses_registered_ && continuing_registrar_ != registrar_ &&
+      registrar_->settings().tracking_restart_after_suspect) {
+    preferThePosesBeforeDoubt(views, loaded, priors, &frame);
+  }
+  before_doubt_.clear();
   if (statusTrouble(frame.status) > 0) {
     // Before the retries and the search, which a frame that shows nothing only keeps busy.
     const std::string nothing =

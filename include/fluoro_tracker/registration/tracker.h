@@ -101,6 +101,13 @@ class Tracker {
   std::optional<TrackedFrame> registeredFromLastGoodPoses(const std::vector<ViewImage>& views,
                                                           const std::vector<bool>& loaded,
                                                           double* seconds);
+  // A frame after the first frame in doubt (before_doubt_; RegistrationSettings::
+  // tracking_restart_after_suspect): registers it from the poses before that frame as well and
+  // takes that result into `frame` unless its continued result ranks better or fits clearly
+  // better.
+  void preferThePosesBeforeDoubt(const std::vector<ViewImage>& views,
+                                 const std::vector<bool>& loaded, const EdgeOffsetPriors& priors,
+                                 TrackedFrame* frame) const;
   // A frame given up for `reason` (TrackedFrame::given_up): every bone lost at its last good pose,
   // the state as it was but for the frames counted since each bone was last ok.
   TrackedFrame giveUp(const std::string& reason);
@@ -142,6 +149,11 @@ class Tracker {
   std::vector<geometry::Pose> poses_;     // last good pose per bone
   std::vector<geometry::Pose> previous_;  // the good poses one frame earlier (empty: none)
   bool poses_registered_ = false;         // poses_ come from a registration, not the user
+  bool previous_all_ok_ = false;          // every bone ok in the last frame taken
+  // The poses before the last frame taken, when that frame was the first to leave a bone in
+  // doubt (suspect, none lost) after one with every bone ok; the next frame is registered from
+  // them as well (RegistrationSettings::tracking_restart_after_suspect). Empty otherwise.
+  std::vector<geometry::Pose> before_doubt_;
   int previous_trouble_ = 0;  // statusTrouble of the last frame taken (its classifyBones status)
   EdgeOffsetFilter edge_offsets_;  // each bone's edge offset, carried between frames
   // Each bone's recent inlier fractions, every contour sample counted (the tracker's decisions).

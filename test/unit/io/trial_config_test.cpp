@@ -355,6 +355,7 @@ registration:
   tracking_shift_search_mm: 45.0
   featureless_noise_ratio: 0.7
   tracking_recovery_registration: false
+  tracking_restart_after_suspect: false
   inner_edge_margin_px: 2.5
   tracking_inner_edge_margin_px: 3.5
   tracking_prediction: constant_velocity
@@ -449,6 +450,7 @@ registration:
   EXPECT_DOUBLE_EQ(c.registration.tracking_shift_search_mm, 45.0);
   EXPECT_DOUBLE_EQ(c.registration.featureless_noise_ratio, 0.7);
   EXPECT_FALSE(c.registration.tracking_recovery_registration);
+  EXPECT_FALSE(c.registration.tracking_restart_after_suspect);
   EXPECT_DOUBLE_EQ(c.registration.inner_edge_margin_px, 2.5);
   EXPECT_DOUBLE_EQ(c.registration.tracking_inner_edge_margin_px, 3.5);
   EXPECT_EQ(c.registration.tracking_prediction,
@@ -570,6 +572,7 @@ TEST(TrialConfig, ShippedTemplateLoadsAndStatesTheDefaults) {
   EXPECT_DOUBLE_EQ(c.registration.tracking_shift_search_mm, d.tracking_shift_search_mm);
   EXPECT_DOUBLE_EQ(c.registration.featureless_noise_ratio, d.featureless_noise_ratio);
   EXPECT_EQ(c.registration.tracking_recovery_registration, d.tracking_recovery_registration);
+  EXPECT_EQ(c.registration.tracking_restart_after_suspect, d.tracking_restart_after_suspect);
   EXPECT_EQ(c.registration.outer_iterations, d.outer_iterations);
   EXPECT_EQ(c.registration.solver_iterations, d.solver_iterations);
   EXPECT_DOUBLE_EQ(c.registration.robust_scale_px, d.robust_scale_px);
