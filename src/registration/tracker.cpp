@@ -251,7 +251,8 @@ void Tracker::accept(TrackedFrame* frame) {
   for (std::size_t b = 0; b < usable.size(); ++b) usable[b] = frame->status[b] != "lost";
   edge_offsets_.update(frame->result.edge_offsets_px, usable);
   // A registered frame that leaves a bone suspect right after a frame with every bone ok: the
-  // next frame is registered from that frame's poses as well (tracking_restart_after_suspect).
+  // next frame is registered from the poses before this one as well (that frame's, still in
+  // poses_; tracking_restart_after_suspect).
   before_doubt_.clear();
   if (!all_ok && previous_all_ok_ && !first && !any_lost && !frame->searched)
     before_doubt_ = poses_;

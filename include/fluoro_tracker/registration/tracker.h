@@ -52,10 +52,12 @@ std::string describeImplausibleJumps(const TrackedFrame& frame,
 // can move in the frames since (RegistrationSettings::max_translation_from_start_m and
 // max_rotation_from_start_rad per frame, the limits of one frame's registration) leaves that bone
 // lost at its last good pose: a frame that shows a knee, but not this one where it was a moment
-// ago, is not followed. Frames started from an earlier frame's registration skip the registrar's
-// mirror check (the motion so far tells the side); frames started from poses the user gave (the
-// first frame, reinitialize) have it as configured. ROS-free: used by track_bag and the tracking
-// node.
+// ago, is not followed. The frame after the first one in doubt (a bone suspect, none lost) is
+// registered from the poses before that one as well (RegistrationSettings::
+// tracking_restart_after_suspect). Frames started from an earlier frame's registration skip the
+// registrar's mirror check (the motion so far tells the side); frames started from poses the user
+// gave (the first frame, reinitialize) have it as configured. ROS-free: used by track_bag and the
+// tracking node.
 class Tracker {
  public:
   // `initial`: per bone, its pose at the first frame. Empty: found by `search` on the first
