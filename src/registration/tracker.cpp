@@ -170,6 +170,7 @@ void Tracker::reinitialize(const std::vector<std::string>& bones,
   previous_trouble_ = 0;
   previous_all_ok_ = false;
   before_doubt_.clear();
+  before_doubt_guess_.clear();
 }
 
 void Tracker::requestSearch() {
@@ -254,8 +255,11 @@ void Tracker::accept(TrackedFrame* frame) {
   // next frame is registered from the poses before this one as well (that frame's, still in
   // poses_; tracking_restart_after_suspect).
   before_doubt_.clear();
-  if (!all_ok && previous_all_ok_ && !first && !any_lost && !frame->searched)
+  before_doubt_guess_.clear();
+  if (!all_ok && previous_all_ok_ && !first && !any_lost && !frame->searched) {
     before_doubt_ = poses_;
+    before_doubt_guess_ = last_guess_;
+  }
   previous_all_ok_ = all_ok;
   // Velocity only from two good frames in a row; a lost bone restarts from its last good pose.
   previous_ = all_ok && !first && !frame->searched ? poses_ : std::vector<geometry::Pose>();
@@ -372,10 +376,16 @@ void Tracker::preferThePosesBeforeDoubt(const std::vector<ViewImage>& views,
   // from them would carry that side of the view's ambiguity on at status ok. The result from the
   // poses before it continues the motion the bones had while ok, so it is kept unless the other
   // leaves fewer bones in doubt or fits clearly better.
+  // Started where the bones would be had they gone on as before: predicted on from the poses
+  // before that frame and the prediction it was registered from.
+  const std::vector<geometry::Pose> start =
+      before_doubt_guess_.size() == before_doubt_.size()
+          ? predictPoses(before_doubt_, before_doubt_guess_, registrar_->joints(),
+                         registrar_->settings().tracking_prediction)
+          : before_doubt_;
   RegistrationResult from_before;
   try {
-    from_before =
-        continuing_registrar_->solve(views, before_doubt_, loaded, priors, recentSpreads());
+    from_before = continuing_registrar_->solve(views, start, loaded, priors, recentSpreads());
   } catch (const InputError&) {
     return;  // e.g. a bone those poses put outside a view: the continued result stands
   }
@@ -426,6 +436,7 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
     guess = predictPoses(previous_, poses_, registrar_->joints(),
                          registrar_->settings().tracking_prediction);
   }
+  last_guess_ = guess;
   const auto start = std::chrono::steady_clock::now();
   TrackedFrame frame;
   // A frame started from an earlier frame's registration continues its side of a mirror

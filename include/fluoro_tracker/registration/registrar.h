@@ -330,12 +330,13 @@ struct RegistrationSettings {
   // frames that arrived meanwhile (README "Tracking quality").
   bool tracking_recovery_registration = true;
   // A tracked frame after the first frame in doubt (a bone suspect and none lost, after a frame
-  // with every bone ok) is registered from the poses before that frame as well as from its
-  // poses, and the result from the poses before is kept unless the other leaves fewer bones in
-  // doubt or fits clearly better (a lower cost and tracking_retry_min_inlier_gain more inlier
-  // fraction). Why: near extension a tray fits a mirrored frame turned 10 deg at status ok beside
-  // a suspect femur, and the next frames, registered on from that turn, carried the wrong side
-  // of the view's ambiguity at status ok for up to 5 frames (README "Tracking quality").
+  // with every bone ok) is registered a second time, from the poses predicted on from the poses
+  // before that frame and that frame's own prediction, and that result is kept unless the one
+  // from the doubtful poses leaves fewer bones in doubt or fits clearly better (a lower cost and
+  // tracking_retry_min_inlier_gain more inlier fraction). Why: near extension a tray fits a
+  // mirrored frame turned 10 deg at status ok beside a suspect femur, and the next frames,
+  // registered on from that turn, carried the wrong side of the view's ambiguity at status ok for
+  // up to 5 frames (README "Tracking quality").
   bool tracking_restart_after_suspect = true;
   // inner_edge_margin_px for a tracked frame registered from the previous frame's result (the
   // frames above) and for its retries. Such a frame starts within a pixel or two of its outlines,

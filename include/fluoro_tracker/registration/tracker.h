@@ -53,7 +53,7 @@ std::string describeImplausibleJumps(const TrackedFrame& frame,
 // max_rotation_from_start_rad per frame, the limits of one frame's registration) leaves that bone
 // lost at its last good pose: a frame that shows a knee, but not this one where it was a moment
 // ago, is not followed. The frame after the first one in doubt (a bone suspect, none lost) is
-// registered from the poses before that one as well (RegistrationSettings::
+// also registered on from the frames before that one (RegistrationSettings::
 // tracking_restart_after_suspect). Frames started from an earlier frame's registration skip the
 // registrar's mirror check (the motion so far tells the side); frames started from poses the user
 // gave (the first frame, reinitialize) have it as configured. ROS-free: used by track_bag and the
@@ -104,9 +104,9 @@ class Tracker {
                                                           const std::vector<bool>& loaded,
                                                           double* seconds);
   // A frame after the first frame in doubt (before_doubt_; RegistrationSettings::
-  // tracking_restart_after_suspect): registers it from the poses before that frame as well and
-  // takes that result into `frame` unless its continued result ranks better or fits clearly
-  // better.
+  // tracking_restart_after_suspect): registers it from the poses predicted on from the frames
+  // before that one as well and takes that result into `frame` unless its continued result
+  // ranks better or fits clearly better.
   void preferThePosesBeforeDoubt(const std::vector<ViewImage>& views,
                                  const std::vector<bool>& loaded, const EdgeOffsetPriors& priors,
                                  TrackedFrame* frame) const;
@@ -156,6 +156,8 @@ class Tracker {
   // doubt (suspect, none lost) after one with every bone ok; the next frame is registered from
   // them as well (RegistrationSettings::tracking_restart_after_suspect). Empty otherwise.
   std::vector<geometry::Pose> before_doubt_;
+  std::vector<geometry::Pose> before_doubt_guess_;  // the start that frame was registered from
+  std::vector<geometry::Pose> last_guess_;          // the start of the last frame tracked on
   int previous_trouble_ = 0;  // statusTrouble of the last frame taken (its classifyBones status)
   EdgeOffsetFilter edge_offsets_;  // each bone's edge offset, carried between frames
   // Each bone's recent inlier fractions, every contour sample counted (the tracker's decisions).
