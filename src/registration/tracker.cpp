@@ -169,8 +169,7 @@ void Tracker::reinitialize(const std::vector<std::string>& bones,
   poses_registered_ = false;
   previous_trouble_ = 0;
   previous_all_ok_ = false;
-  before_doubt_.clear();
-  before_doubt_guess_.clear();
+  restart_after_doubt_.clear();
 }
 
 void Tracker::requestSearch() {
@@ -252,13 +251,15 @@ void Tracker::accept(TrackedFrame* frame) {
   for (std::size_t b = 0; b < usable.size(); ++b) usable[b] = frame->status[b] != "lost";
   edge_offsets_.update(frame->result.edge_offsets_px, usable);
   // A registered frame that leaves a bone suspect right after a frame with every bone ok: the
-  // next frame is registered from the poses before this one as well (that frame's, still in
-  // poses_; tracking_restart_after_suspect).
-  before_doubt_.clear();
-  before_doubt_guess_.clear();
+  // next frame is registered as well from where the bones would be had they gone on as before,
+  // predicted from the poses before this frame (still in poses_) and the start this frame was
+  // registered from (tracking_restart_after_suspect).
+  restart_after_doubt_.clear();
   if (!all_ok && previous_all_ok_ && !first && !any_lost && !frame->searched) {
-    before_doubt_ = poses_;
-    before_doubt_guess_ = last_guess_;
+    restart_after_doubt_ = last_guess_.size() == poses_.size()
+                               ? predictPoses(poses_, last_guess_, registrar_->joints(),
+                                              registrar_->settings().tracking_prediction)
+                               : poses_;
   }
   previous_all_ok_ = all_ok;
   // Velocity only from two good frames in a row; a lost bone restarts from its last good pose.
@@ -373,31 +374,24 @@ void Tracker::preferThePosesBeforeDoubt(const std::vector<ViewImage>& views,
                                         const EdgeOffsetPriors& priors, TrackedFrame* frame) const {
   // The last frame was the first in doubt: its poses may be a corrupted frame's (a tray turned
   // to fit a mirrored frame, at status ok beside a suspect femur), and a registration continued
-  // from them would carry that side of the view's ambiguity on at status ok. The result from the
-  // poses before it continues the motion the bones had while ok, so it is kept unless the other
-  // leaves fewer bones in doubt or fits clearly better.
-  // Started where the bones would be had they gone on as before: predicted on from the poses
-  // before that frame and the prediction it was registered from.
-  const std::vector<geometry::Pose> start =
-      before_doubt_guess_.size() == before_doubt_.size()
-          ? predictPoses(before_doubt_, before_doubt_guess_, registrar_->joints(),
-                         registrar_->settings().tracking_prediction)
-          : before_doubt_;
+  // from them would carry that side of the view's ambiguity on at status ok. The result from
+  // where the motion the bones had while ok leads is kept unless the other leaves fewer bones in
+  // doubt or fits clearly better, every bone's outline counted.
   RegistrationResult from_before;
   try {
-    from_before = continuing_registrar_->solve(views, start, loaded, priors, recentSpreads());
+    from_before =
+        continuing_registrar_->solve(views, restart_after_doubt_, loaded, priors, recentSpreads());
   } catch (const InputError&) {
     return;  // e.g. a bone those poses put outside a view: the continued result stands
   }
   const QualitySettings quality = everySampleCounted(registrar_->settings().quality);
-  const auto before_rank = resultRank(from_before, quality);
-  const auto continued_rank = resultRank(frame->result, quality);
-  const bool continued_better = continued_rank.first < before_rank.first ||
-                                (continued_rank.first == before_rank.first &&
-                                 frame->result.final_cost < from_before.final_cost &&
-                                 before_rank.second - continued_rank.second >=
-                                     registrar_->settings().tracking_retry_min_inlier_gain);
-  if (continued_better) return;
+  const int before_trouble = statusTrouble(classifyBones(from_before, quality));
+  const int continued_trouble = statusTrouble(frame->status);
+  if (continued_trouble < before_trouble ||
+      fitsClearlyBetter(frame->result, continued_trouble, from_before, before_trouble,
+                        std::vector<bool>(frame->result.quality.size(), true))) {
+    return;
+  }
   frame->result = std::move(from_before);
   frame->status = classifyBones(frame->result, quality);
 }
@@ -449,11 +443,11 @@ TrackedFrame Tracker::track(const std::vector<ViewImage>& views, const std::vect
                      : registrar_->solve(views, guess, loaded, priors);
   const QualitySettings quality = everySampleCounted(registrar_->settings().quality);
   frame.status = classifyBones(frame.result, quality);
-  if (!before_doubt_.empty() && poses_registered_ && continuing_registrar_ != registrar_ &&
+  if (!restart_after_doubt_.empty() && poses_registered_ && continuing_registrar_ != registrar_ &&
       registrar_->settings().tracking_restart_after_suspect) {
     preferThePosesBeforeDoubt(views, loaded, priors, &frame);
   }
-  before_doubt_.clear();
+  restart_after_doubt_.clear();
   if (statusTrouble(frame.status) > 0) {
     // Before the retries and the search, which a frame that shows nothing only keeps busy.
     const std::string nothing =

@@ -103,10 +103,10 @@ class Tracker {
   std::optional<TrackedFrame> registeredFromLastGoodPoses(const std::vector<ViewImage>& views,
                                                           const std::vector<bool>& loaded,
                                                           double* seconds);
-  // A frame after the first frame in doubt (before_doubt_; RegistrationSettings::
-  // tracking_restart_after_suspect): registers it from the poses predicted on from the frames
-  // before that one as well and takes that result into `frame` unless its continued result
-  // ranks better or fits clearly better.
+  // A frame after the first frame in doubt (RegistrationSettings::
+  // tracking_restart_after_suspect): registers it from restart_after_doubt_ as well and takes
+  // that result into `frame` unless its continued result leaves fewer bones in doubt or fits
+  // clearly better (fitsClearlyBetter, every bone counted).
   void preferThePosesBeforeDoubt(const std::vector<ViewImage>& views,
                                  const std::vector<bool>& loaded, const EdgeOffsetPriors& priors,
                                  TrackedFrame* frame) const;
@@ -152,12 +152,12 @@ class Tracker {
   std::vector<geometry::Pose> previous_;  // the good poses one frame earlier (empty: none)
   bool poses_registered_ = false;         // poses_ come from a registration, not the user
   bool previous_all_ok_ = false;          // every bone ok in the last frame taken
-  // The poses before the last frame taken, when that frame was the first to leave a bone in
-  // doubt (suspect, none lost) after one with every bone ok; the next frame is registered from
-  // them as well (RegistrationSettings::tracking_restart_after_suspect). Empty otherwise.
-  std::vector<geometry::Pose> before_doubt_;
-  std::vector<geometry::Pose> before_doubt_guess_;  // the start that frame was registered from
-  std::vector<geometry::Pose> last_guess_;          // the start of the last frame tracked on
+  // When the last frame taken was the first to leave a bone in doubt (suspect, none lost) after
+  // one with every bone ok: the poses predicted on from the frame before it, which the next
+  // frame is registered from as well (RegistrationSettings::tracking_restart_after_suspect).
+  // Empty otherwise.
+  std::vector<geometry::Pose> restart_after_doubt_;
+  std::vector<geometry::Pose> last_guess_;  // the start of the last frame tracked on
   int previous_trouble_ = 0;  // statusTrouble of the last frame taken (its classifyBones status)
   EdgeOffsetFilter edge_offsets_;  // each bone's edge offset, carried between frames
   // Each bone's recent inlier fractions, every contour sample counted (the tracker's decisions).
