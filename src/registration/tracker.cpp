@@ -212,6 +212,16 @@ void Tracker::rejectImplausibleJumps(TrackedFrame* frame) const {
   }
 }
 
+bool Tracker::jointPartnersOk(const std::vector<std::string>& status, std::size_t b) const {
+  for (const JointModel& joint : registrar_->joints()) {
+    const auto parent = static_cast<std::size_t>(joint.parent);
+    const auto child = static_cast<std::size_t>(joint.child);
+    const std::size_t partner = parent == b ? child : child == b ? parent : b;
+    if (partner != b && partner < status.size() && status[partner] != "ok") return false;
+  }
+  return true;
+}
+
 TrackedFrame Tracker::giveUp(const std::string& reason) {
   TrackedFrame frame;
   frame.given_up = reason;
@@ -266,7 +276,9 @@ void Tracker::accept(TrackedFrame* frame) {
   previous_ = all_ok && !first && !frame->searched ? poses_ : std::vector<geometry::Pose>();
   if (!first || !any_lost) poses_ = frame->poses;
   if (first && any_lost) poses_.clear();  // not found yet: search again next frame
-  recovering_ = any_lost && search_ != nullptr;
+  // A search that leaves a bone in doubt has not brought tracking back: the next frame is
+  // registered from these poses and searched again unless every bone is then ok.
+  recovering_ = (any_lost || (frame->searched && !all_ok)) && search_ != nullptr;
   poses_registered_ = !poses_.empty();
   const std::size_t window =
       static_cast<std::size_t>(std::max(1, registrar_->settings().quality.relative_inlier_window));
@@ -280,7 +292,10 @@ void Tracker::accept(TrackedFrame* frame) {
   last_ok_.resize(frame->status.size());
   frames_since_ok_.resize(frame->status.size(), 0);
   for (std::size_t b = 0; b < frame->status.size(); ++b) {
-    if (frame->status[b] == "ok") {
+    // A bone called ok beside a joint partner in doubt may be the wrong one of the two (a tray
+    // fitted to a rod beside a femoral component the search could not place): its pose is no
+    // reference for rejectImplausibleJumps, which would then turn away the right pose found later.
+    if (frame->status[b] == "ok" && jointPartnersOk(frame->status, b)) {
       last_ok_[b] = frame->poses[b];
       frames_since_ok_[b] = 0;
     } else {

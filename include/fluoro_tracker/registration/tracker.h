@@ -116,6 +116,8 @@ class Tracker {
   // Marks lost (TrackedFrame::implausible_jump) each bone a recovery search put farther from its
   // pose in the last frame that called it ok than it can move in the frames since.
   void rejectImplausibleJumps(TrackedFrame* frame) const;
+  // Whether every bone that shares a joint with bone `b` has status ok in `status`.
+  bool jointPartnersOk(const std::vector<std::string>& status, std::size_t b) const;
   // Per bone: its inlier fraction lies more than RegistrationSettings::tracking_retry_inlier_drop
   // below the median of its recent frames (single view only; all false with more views).
   std::vector<bool> fitsWorseThanRecently(const RegistrationResult& result,
@@ -143,9 +145,11 @@ class Tracker {
   // margin (RegistrationSettings::tracking_inner_edge_margin_px), as they start near too.
   std::shared_ptr<const Registrar> retrying_registrar_;
   std::shared_ptr<const PoseSearch> search_;
-  bool recovering_ = false;        // a bone was lost: search the next frames
+  // A bone was lost, or a search left one in doubt: search the next frames until all are ok.
+  bool recovering_ = false;
   bool search_requested_ = false;  // requestSearch(): take the next search as found
-  // Per bone: its pose in the last frame a registration called it ok, and the frames since.
+  // Per bone: its pose in the last frame a registration called it and its joint partners ok,
+  // and the frames since.
   std::vector<std::optional<geometry::Pose>> last_ok_;
   std::vector<int> frames_since_ok_;
   std::vector<geometry::Pose> poses_;     // last good pose per bone
